@@ -1,0 +1,33 @@
+# fskin: the two commands a user needs are `make demo` and `make test`.
+# Both install what is missing (scripts/setup.sh) and build first.
+BUILD_DIR ?= build
+JOBS ?= $(shell nproc)
+CMAKE_FLAGS ?=
+# ccache with precompiled headers: these sloppiness flags let it reuse PCH units.
+export CCACHE_SLOPPINESS := pch_defines,time_macros,include_file_mtime,include_file_ctime
+export CCACHE_DIR ?= $(HOME)/.cache/fskin-ccache
+
+.PHONY: setup configure build test demo bench clean
+
+setup:
+	bash scripts/setup.sh
+
+$(BUILD_DIR)/build.ninja:
+	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
+
+configure: setup $(BUILD_DIR)/build.ninja
+
+build: configure
+	cmake --build $(BUILD_DIR) -j $(JOBS)
+
+test: build
+	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 900
+
+demo: build
+	bash scripts/demo.sh $(BUILD_DIR)/fskin demo-output
+
+bench: build
+	$(BUILD_DIR)/fskin_bench
+
+clean:
+	rm -rf $(BUILD_DIR)

@@ -1,0 +1,22 @@
+#pragma once
+// Files that are either completely written or not there at all: data goes to
+// "<path>.tmp-<pid>", is flushed, then renamed over <path> (rename is atomic
+// on POSIX file systems). A killed run never leaves a half-written checkpoint,
+// dataset frame or mesh under the final name.
+#include <functional>
+#include <ostream>
+#include <string>
+
+namespace fskin {
+
+// Writes `bytes` to `path` atomically; creates parent directories.
+void write_file_atomically(const std::string& path, const std::string& bytes);
+
+// Calls `write(stream)` on a temporary file, then renames it to `path`.
+void write_file_atomically(const std::string& path,
+                           const std::function<void(std::ostream&)>& write);
+
+// Whole file as bytes; throws fskin::Error naming `path` if it cannot be read.
+std::string read_file(const std::string& path);
+
+}  // namespace fskin

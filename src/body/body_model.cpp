@@ -1,0 +1,149 @@
+#include "fskin/body/body_model.h"
+
+#include <torch/torch.h>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+#include "fskin/io/npz.h"
+#include "fskin/skeleton/forward_kinematics.h"
+#include "fskin/skeleton/lbs.h"
+#include "fskin/skeleton/rotations.h"
+
+namespace fskin {
+
+BodyModel::BodyModel(BodyModelData data, const std::string& source) : data_(std::move(data)) {
+  auto& d = data_;
+  FSKIN_CHECK(d.v_template.defined(), "{}: missing v_template", source);
+  expect_shape(d.v_template, {-1, 3}, source + ": v_template");
+  const int64_t V = d.v_template.size(0);
+  FSKIN_CHECK(V > 0, "{}: v_template has zero vertices", source);
+  const int64_t J = static_cast<int64_t>(d.parents.size());
+  FSKIN_CHECK(J > 0, "{}: kintree_table has zero joints", source);
+  d.v_template = d.v_template.to(torch::kFloat32).contiguous();
+  expect_finite(d.v_template, source + ": v_template");
+
+  FSKIN_CHECK(d.faces.defined(), "{}: missing faces 'f'", source);
+  FSKIN_CHECK(!d.faces.is_floating_point(), "{}: faces 'f' must be integers", source);
+  d.faces = d.faces.to(torch::kInt64).contiguous();
+  Mesh{d.v_template, d.faces, {}}.validate(source);
+
+  expect_shape(d.weights, {V, J}, source + ": weights");
+  d.weights = d.weights.to(torch::kFloat32).contiguous();
+  expect_finite(d.weights, source + ": weights");
+  FSKIN_CHECK((d.weights >= -1e-6).all().item<bool>(), "{}: weights has negative entries", source);
+  const double sum_err = (d.weights.sum(1) - 1).abs().max().item<double>();
+  FSKIN_CHECK(sum_err < 1e-3, "{}: weights rows must sum to 1 (max deviation {:.3g})", source,
+              sum_err);
+
+  expect_shape(d.J_regressor, {J, V}, source + ": J_regressor");
+  d.J_regressor = d.J_regressor.to(torch::kFloat32).contiguous();
+  expect_finite(d.J_regressor, source + ": J_regressor");
+
+  if (d.joint_names.empty())
+    for (int64_t j = 0; j < J; ++j) d.joint_names.push_back("joint_" + std::to_string(j));
+  if (d.shapedirs.defined()) {
+    expect_shape(d.shapedirs, {V, 3, -1}, source + ": shapedirs");
+    d.shapedirs = d.shapedirs.to(torch::kFloat32).contiguous();
+    expect_finite(d.shapedirs, source + ": shapedirs");
+  }
+  if (d.posedirs.defined()) {
+    expect_shape(d.posedirs, {V, 3, 9 * (J - 1)}, source + ": posedirs");
+    d.posedirs = d.posedirs.to(torch::kFloat32).contiguous();
+    expect_finite(d.posedirs, source + ": posedirs");
+  }
+  skeleton().validate(source);
+}
+
+BodyModel BodyModel::load(const std::string& path) {
+  io::NpzReader npz(path);
+  for (const char* key : {"v_template", "f", "weights", "J_regressor", "kintree_table"})
+    FSKIN_CHECK(npz.contains(key), "{}: missing array '{}' (not an SMPL-format model file)", path,
+                key);
+  BodyModelData d;
+  d.v_template = npz.tensor("v_template");
+  d.faces = npz.tensor("f");
+  d.weights = npz.tensor("weights");
+  d.J_regressor = npz.tensor("J_regressor");
+  const auto kintree = npz.tensor("kintree_table").to(torch::kInt64);
+  FSKIN_CHECK(kintree.dim() == 2 && kintree.size(0) == 2,
+              "{}: kintree_table must be (2, J), got {}", path, shape_string(kintree.sizes()));
+  const int64_t J = kintree.size(1);
+  FSKIN_CHECK(J > 0, "{}: kintree_table has zero joints", path);
+  // Row 0 holds parents (the root's is -1, or 2^32-1 when stored as uint32),
+  // row 1 the joint ids; SMPL files store them in id order.
+  for (int64_t j = 0; j < J; ++j) {
+    FSKIN_CHECK(kintree[1][j].item<int64_t>() == j,
+                "{}: kintree_table row 1 must list joints 0..J-1 in order", path);
+    const int64_t p = kintree[0][j].item<int64_t>();
+    d.parents.push_back(j == 0 ? -1 : p);
+  }
+  if (npz.contains("joint_names")) d.joint_names = npz.strings("joint_names");
+  if (npz.contains("shapedirs")) d.shapedirs = npz.tensor("shapedirs");
+  if (npz.contains("posedirs")) d.posedirs = npz.tensor("posedirs");
+  return BodyModel(std::move(d), path);
+}
+
+void BodyModel::save(const std::string& path) const {
+  io::NpzWriter npz;
+  npz.add("v_template", data_.v_template);
+  npz.add("f", data_.faces.to(torch::kInt32));
+  npz.add("weights", data_.weights);
+  npz.add("J_regressor", data_.J_regressor);
+  auto parents = torch::tensor(data_.parents, torch::kInt64);
+  npz.add("kintree_table",
+          torch::stack({parents, torch::arange(num_joints(), torch::kInt64)}).to(torch::kInt32));
+  npz.add_strings("joint_names", data_.joint_names);
+  if (data_.shapedirs.defined()) npz.add("shapedirs", data_.shapedirs);
+  if (data_.posedirs.defined()) npz.add("posedirs", data_.posedirs);
+  npz.save(path, /*compress=*/true);
+}
+
+Skeleton BodyModel::skeleton() const {
+  return Skeleton{data_.joint_names, data_.parents,
+                  torch::matmul(data_.J_regressor, data_.v_template)};
+}
+
+Mesh BodyModel::template_mesh() const { return Mesh{data_.v_template, data_.faces, {}}; }
+
+torch::Tensor pose_features(const torch::Tensor& rotations) {
+  expect_shape(rotations, {-1, -1, 3, 3}, "pose_features: rotations");
+  const auto eye = torch::eye(3, rotations.options());
+  return (rotations.narrow(1, 1, rotations.size(1) - 1) - eye).reshape({rotations.size(0), -1});
+}
+
+PosedBody BodyModel::pose(const torch::Tensor& axis_angle, const torch::Tensor& betas,
+                          const torch::Tensor& trans) const {
+  const int64_t J = num_joints();
+  expect_shape(axis_angle, {-1, J, 3}, "BodyModel::pose: axis_angle");
+  expect_finite(axis_angle, "BodyModel::pose: axis_angle");
+  const int64_t B = axis_angle.size(0);
+  auto v_shaped = data_.v_template.unsqueeze(0).expand({B, -1, -1});
+  if (betas.defined() && betas.numel() > 0) {
+    expect_shape(betas, {B, -1}, "BodyModel::pose: betas");
+    FSKIN_CHECK(betas.size(1) <= num_betas(), "BodyModel::pose: {} betas given, the model has {}",
+                betas.size(1), num_betas());
+    const auto dirs = data_.shapedirs.narrow(2, 0, betas.size(1));  // [V, 3, S]
+    v_shaped = v_shaped + torch::einsum("vcs,bs->bvc", {dirs, betas.to(torch::kFloat32)});
+  }
+  const auto joints = torch::matmul(data_.J_regressor, v_shaped);  // [B, J, 3]
+  const auto rotations = axis_angle_to_matrix(axis_angle.to(torch::kFloat32));
+  auto v_posed = v_shaped;
+  if (data_.posedirs.defined())
+    v_posed = v_posed + torch::einsum("vcp,bp->bvc", {data_.posedirs, pose_features(rotations)});
+  if (trans.defined()) {
+    expect_shape(trans, {B, 3}, "BodyModel::pose: trans");
+    expect_finite(trans, "BodyModel::pose: trans");
+  }
+  const auto posed = forward_kinematics(data_.parents, joints, rotations, trans);
+  return PosedBody{linear_blend_skinning(v_posed, data_.weights, posed.bone_transforms),
+                   posed.joints, posed.bone_transforms};
+}
+
+torch::Tensor da_pose(const Skeleton& skeleton, double angle_radians) {
+  auto pose = torch::zeros({skeleton.num_joints(), 3});
+  pose[skeleton.index_of("left_hip")][2] = angle_radians;
+  pose[skeleton.index_of("right_hip")][2] = -angle_radians;
+  return pose;
+}
+
+}  // namespace fskin

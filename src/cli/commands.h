@@ -1,0 +1,10 @@
+#pragma once
+// Each subcommand lives in its own file and registers itself on the app.
+#include <CLI/CLI.hpp>
+
+namespace fskin::cli {
+
+void register_character(CLI::App& app);
+void register_pose(CLI::App& app);
+
+}  // namespace fskin::cli

@@ -1,0 +1,35 @@
+// fskin: the command-line front end. Every subcommand is a thin layer over
+// the library; see `fskin --help`.
+#include <ATen/Parallel.h>
+
+#include <cstdio>
+#include <thread>
+
+#include "cli/commands.h"
+#include "fskin/core/error.h"
+#include "fskin/version.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"fskin: differentiable forward skinning (SNARF, Fast-SNARF, INS)", "fskin"};
+  app.set_version_flag("--version", std::string("fskin ") + FSKIN_VERSION);
+  app.require_subcommand(1);
+  int threads = static_cast<int>(std::thread::hardware_concurrency());
+  app.add_option("--threads", threads, "CPU threads for LibTorch and fskin kernels")
+      ->check(CLI::PositiveNumber);
+  fskin::cli::register_character(app);
+  fskin::cli::register_pose(app);
+  // Subcommand callbacks run inside parse(), after the global options are read.
+  app.parse_complete_callback([&] { at::set_num_threads(std::max(1, threads)); });
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const fskin::Error& e) {
+    std::fprintf(stderr, "fskin: error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "fskin: internal error: %s\n", e.what());
+    return 2;
+  }
+  return 0;
+}
