@@ -6,6 +6,7 @@
 
 #include "cli/commands.h"
 #include "fskin/body/body_model.h"
+#include "fskin/core/error.h"
 #include "fskin/data/pose_set.h"
 #include "fskin/io/mesh_io.h"
 
