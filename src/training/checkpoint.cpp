@@ -1,0 +1,109 @@
+#include "fskin/training/checkpoint.h"
+
+#include <fmt/format.h>
+#include <torch/torch.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
+
+#include "fskin/core/error.h"
+#include "fskin/util/atomic_file.h"
+
+namespace fskin {
+
+namespace fs = std::filesystem;
+
+namespace {
+constexpr char kMagic[8] = {'F', 'S', 'K', 'I', 'N', 'C', 'K', '1'};
+constexpr size_t kHeaderSize = 8 + 8 + 4;
+
+uint32_t crc32_of(const std::string& bytes) {
+  return static_cast<uint32_t>(
+      ::crc32(0L, reinterpret_cast<const Bytef*>(bytes.data()), static_cast<uInt>(bytes.size())));
+}
+
+int64_t step_of(const fs::path& path) {
+  const std::string name = path.filename().string();
+  const std::string prefix = "checkpoint-", suffix = ".fskin";
+  if (name.size() <= prefix.size() + suffix.size() || name.rfind(prefix, 0) != 0 ||
+      name.substr(name.size() - suffix.size()) != suffix)
+    return -1;
+  const std::string digits = name.substr(prefix.size(), name.size() - prefix.size() - suffix.size());
+  if (digits.empty() || !std::all_of(digits.begin(), digits.end(), ::isdigit)) return -1;
+  return std::stoll(digits);
+}
+}  // namespace
+
+std::string save_checkpoint(const std::string& dir, int64_t step, const ArchiveWriter& write,
+                            int keep) {
+  torch::serialize::OutputArchive archive;
+  write(archive);
+  std::ostringstream payload_stream;
+  archive.save_to(payload_stream);
+  const std::string payload = payload_stream.str();
+
+  std::string bytes(kMagic, sizeof(kMagic));
+  const uint64_t size = payload.size();
+  const uint32_t crc = crc32_of(payload);
+  bytes.append(reinterpret_cast<const char*>(&size), sizeof(size));
+  bytes.append(reinterpret_cast<const char*>(&crc), sizeof(crc));
+  bytes += payload;
+
+  const std::string path = (fs::path(dir) / fmt::format("checkpoint-{:08d}.fskin", step)).string();
+  write_file_atomically(path, bytes);
+  const auto all = list_checkpoints(dir);
+  for (size_t i = static_cast<size_t>(std::max(keep, 1)); i < all.size(); ++i)
+    fs::remove(all[i]);
+  return path;
+}
+
+std::vector<std::string> list_checkpoints(const std::string& dir) {
+  std::vector<std::pair<int64_t, std::string>> found;
+  if (!fs::is_directory(dir)) return {};
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const int64_t step = step_of(entry.path());
+    if (step >= 0 && entry.is_regular_file()) found.emplace_back(step, entry.path().string());
+  }
+  std::sort(found.begin(), found.end(), std::greater<>());
+  std::vector<std::string> out;
+  for (auto& f : found) out.push_back(std::move(f.second));
+  return out;
+}
+
+std::string read_checkpoint_payload(const std::string& path) {
+  const std::string bytes = read_file(path);
+  FSKIN_CHECK(bytes.size() >= kHeaderSize && std::memcmp(bytes.data(), kMagic, 8) == 0,
+              "{}: not an fskin checkpoint (bad header)", path);
+  uint64_t size = 0;
+  uint32_t crc = 0;
+  std::memcpy(&size, bytes.data() + 8, sizeof(size));
+  std::memcpy(&crc, bytes.data() + 16, sizeof(crc));
+  FSKIN_CHECK(bytes.size() - kHeaderSize == size,
+              "{}: truncated checkpoint ({} payload bytes, header says {})", path,
+              bytes.size() - kHeaderSize, size);
+  std::string payload = bytes.substr(kHeaderSize);
+  FSKIN_CHECK(crc32_of(payload) == crc, "{}: corrupted checkpoint (CRC mismatch)", path);
+  return payload;
+}
+
+std::optional<std::string> load_latest_checkpoint(const std::string& dir,
+                                                  const ArchiveReader& read) {
+  for (const auto& path : list_checkpoints(dir)) {
+    try {
+      const std::string payload = read_checkpoint_payload(path);
+      torch::serialize::InputArchive archive;
+      archive.load_from(payload.data(), payload.size());
+      read(archive);
+      return path;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "fskin: skipping damaged checkpoint: %s\n", e.what());
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace fskin

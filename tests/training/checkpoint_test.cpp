@@ -1,0 +1,82 @@
+#include "fskin/training/checkpoint.h"
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "fskin/util/atomic_file.h"
+
+namespace fskin {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path fresh_dir(const std::string& name) {
+  const auto dir = fs::temp_directory_path() / ("fskin_ckpt_" + name + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+ArchiveWriter write_value(float value, int64_t step) {
+  return [=](torch::serialize::OutputArchive& a) {
+    a.write("value", torch::full({3}, value));
+    a.write("step", torch::tensor(step));
+  };
+}
+
+float read_value(const fs::path& dir) {
+  float value = -1;
+  load_latest_checkpoint(dir.string(), [&](torch::serialize::InputArchive& a) {
+    torch::Tensor t;
+    a.read("value", t);
+    value = t[0].item<float>();
+  });
+  return value;
+}
+
+TEST(Checkpoint, SavesKeepsNewestAndLoadsLatest) {
+  const auto dir = fresh_dir("keep");
+  for (int step = 1; step <= 4; ++step) save_checkpoint(dir.string(), step * 10, write_value(step, step), 2);
+  const auto files = list_checkpoints(dir.string());
+  ASSERT_EQ(files.size(), 2u);
+  EXPECT_NE(files[0].find("checkpoint-00000040"), std::string::npos);
+  EXPECT_FLOAT_EQ(read_value(dir), 4.0f);
+  for (const auto& entry : fs::directory_iterator(dir))  // no temporary files left
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos);
+}
+
+TEST(Checkpoint, TruncatedNewestFallsBackToPrevious) {
+  const auto dir = fresh_dir("trunc");
+  save_checkpoint(dir.string(), 1, write_value(1.0f, 1));
+  const auto newest = save_checkpoint(dir.string(), 2, write_value(2.0f, 2));
+  const auto bytes = read_file(newest);
+  write_file_atomically(newest, bytes.substr(0, bytes.size() / 2));
+  EXPECT_THROW(read_checkpoint_payload(newest), std::runtime_error);
+  EXPECT_FLOAT_EQ(read_value(dir), 1.0f);
+}
+
+TEST(Checkpoint, CorruptedByteIsDetected) {
+  const auto dir = fresh_dir("crc");
+  const auto path = save_checkpoint(dir.string(), 5, write_value(5.0f, 5));
+  auto bytes = read_file(path);
+  bytes[bytes.size() - 10] ^= 0x5a;
+  write_file_atomically(path, bytes);
+  try {
+    read_checkpoint_payload(path);
+    FAIL() << "expected a CRC error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("CRC"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  EXPECT_FLOAT_EQ(read_value(dir), -1.0f);  // nothing intact to load
+}
+
+TEST(Checkpoint, MissingDirectoryHasNoCheckpoints) {
+  EXPECT_TRUE(list_checkpoints("/nonexistent/fskin/dir").empty());
+}
+
+}  // namespace
+}  // namespace fskin
