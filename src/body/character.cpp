@@ -455,9 +455,10 @@ void blend_skirt_weights(const Design& design, const std::vector<Vec3>& vertices
   const Skirt& skirt = design.skirt;
   for (size_t v = 0; v < vertices.size(); ++v) {
     const Vec3& p = vertices[v];
-    // How much the vertex belongs to the skirt rather than to the body.
-    const double margin = design.body_distance(p) - skirt.distance(p);
-    const double s = std::clamp(margin / (0.03 * scale), 0.0, 1.0);
+    // How much the vertex belongs to the skirt: 1 on its surface, fading out
+    // over 2 cm (the fillets to the torso and the legs). Where the hips touch
+    // the skirt from inside, the vertex still follows the cloth.
+    const double s = std::clamp(1.0 - skirt.distance(p) / (0.02 * scale), 0.0, 1.0);
     const double on_skirt = s * s * (3 - 2 * s);
     if (on_skirt <= 0) continue;
     const double t = std::clamp((skirt.top_y - p.y()) / (skirt.top_y - skirt.hem_y), 0.0, 1.0);
