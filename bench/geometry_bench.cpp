@@ -15,8 +15,8 @@ void BM_IsoSurfaceSphere(benchmark::State& state) {
   const int64_t n = state.range(0);
   const double h = 2.0 / static_cast<double>(n - 1);
   const fskin::GridBox box{{-1, -1, -1}, {h, h, h}};
-  const auto grid = fskin::sample_grid(
-      [](const torch::Tensor& p) { return p.norm(2, 1) - 0.8; }, box, {n, n, n});
+  const auto grid =
+      fskin::sample_grid([](const torch::Tensor& p) { return p.norm(2, 1) - 0.8; }, box, {n, n, n});
   int64_t faces = 0;
   for (auto _ : state) {
     const auto mesh = fskin::iso_surface(grid, box, fskin::IsoSurfaceOptions{0.0, false});
@@ -41,6 +41,10 @@ void BM_MakeCharacter(benchmark::State& state) {
   }
   state.counters["faces"] = static_cast<double>(faces);
 }
-BENCHMARK(BM_MakeCharacter)->Args({56, 0})->Args({110, 0})->Args({110, 1})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MakeCharacter)
+    ->Args({56, 0})
+    ->Args({110, 0})
+    ->Args({110, 1})
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -3,8 +3,8 @@
 #include <ATen/Parallel.h>
 #include <torch/torch.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
-#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -20,11 +20,35 @@ namespace {
 using Vec3 = Eigen::Vector3d;
 
 enum Joint : int {
-  kPelvis, kLeftHip, kRightHip, kSpine1, kLeftKnee, kRightKnee, kSpine2, kLeftAnkle,
-  kRightAnkle, kSpine3, kLeftFoot, kRightFoot, kNeck, kLeftCollar, kRightCollar, kHead,
-  kLeftShoulder, kRightShoulder, kLeftElbow, kRightElbow, kLeftWrist, kRightWrist, kLeftHand,
-  kRightHand, kNumJoints
+  kPelvis,
+  kLeftHip,
+  kRightHip,
+  kSpine1,
+  kLeftKnee,
+  kRightKnee,
+  kSpine2,
+  kLeftAnkle,
+  kRightAnkle,
+  kSpine3,
+  kLeftFoot,
+  kRightFoot,
+  kNeck,
+  kLeftCollar,
+  kRightCollar,
+  kHead,
+  kLeftShoulder,
+  kRightShoulder,
+  kLeftElbow,
+  kRightElbow,
+  kLeftWrist,
+  kRightWrist,
+  kLeftHand,
+  kRightHand,
+  kNumJoints
 };
+
+// In SMPL's order every right joint directly follows its left twin.
+int sided(int left_joint, int side) { return side > 0 ? left_joint : left_joint + 1; }
 
 // Uniform numbers from a fixed algorithm: std::uniform_real_distribution is not
 // specified exactly and differs between standard libraries.
@@ -63,9 +87,9 @@ double ellipsoid_distance(const Vec3& p, const Vec3& centre, const Vec3& radii) 
 
 struct Part {
   bool ellipsoid = false;
-  Vec3 a, b;          // capsule ends, or the ellipsoid's centre (a) and radii (b)
+  Vec3 a, b;  // capsule ends, or the ellipsoid's centre (a) and radii (b)
   double ra = 0, rb = 0;
-  double blend = 0;   // smooth-min radius joining it to the parts before it
+  double blend = 0;  // smooth-min radius joining it to the parts before it
 
   double distance(const Vec3& p) const {
     return ellipsoid ? ellipsoid_distance(p, a, b) : capsule_distance(p, a, b, ra, rb);
@@ -111,7 +135,8 @@ struct Design {
 
   double body_distance(const Vec3& p) const {
     double d = parts.front().distance(p);
-    for (size_t i = 1; i < parts.size(); ++i) d = smooth_min(d, parts[i].distance(p), parts[i].blend);
+    for (size_t i = 1; i < parts.size(); ++i)
+      d = smooth_min(d, parts[i].distance(p), parts[i].blend);
     return d;
   }
   double distance(const Vec3& p) const {
@@ -124,7 +149,9 @@ struct Design {
 // to options.height; left is +x, so `side` is +1 for left and -1 for right.
 Design design_body(const CharacterOptions& o) {
   SeededUniform uniform(o.seed);
-  const auto vary = [&](double multiplier) { return multiplier * (1.0 + o.variation * uniform.symmetric()); };
+  const auto vary = [&](double multiplier) {
+    return multiplier * (1.0 + o.variation * uniform.symmetric());
+  };
   const double girth = vary(o.girth), shoulders = vary(o.shoulder_width), hips = vary(o.hip_width),
                arms = vary(o.arm_length), legs = vary(o.leg_length), head = vary(o.head_size),
                torso = vary(1.0);
@@ -138,8 +165,7 @@ Design design_body(const CharacterOptions& o) {
   J[kNeck] = J[kSpine3] + Vec3(0, 0.20 * torso, -0.015);
   J[kHead] = J[kNeck] + Vec3(0, 0.075, 0.02);
   for (int side : {+1, -1}) {
-    const bool left = side > 0;
-    const auto at = [&](int left_joint) { return left ? left_joint : left_joint + 1; };
+    const auto at = [side](int left_joint) { return sided(left_joint, side); };
     J[at(kLeftHip)] = {side * 0.10 * hips, hip_y, 0.0};
     J[at(kLeftKnee)] = {side * 0.105 * hips, knee_y, 0.01};
     J[at(kLeftAnkle)] = {side * 0.11 * hips, ankle_y, -0.01};
@@ -162,14 +188,18 @@ Design design_body(const CharacterOptions& o) {
   P.push_back(ellipsoid({0, hip_y + 0.035, -0.015}, {0.165 * hips * g, 0.11, 0.115 * g}, 0));
   P.push_back(ellipsoid(J[kSpine1] + Vec3(0, 0.03, 0.005),
                         {0.145 * 0.5 * (hips + shoulders) * g, 0.13, 0.105 * g}, 0.08));
-  P.push_back(ellipsoid(J[kSpine3] + Vec3(0, 0.02, 0), {0.17 * shoulders * g, 0.16, 0.115 * g}, 0.08));
+  P.push_back(
+      ellipsoid(J[kSpine3] + Vec3(0, 0.02, 0), {0.17 * shoulders * g, 0.16, 0.115 * g}, 0.08));
   P.push_back(capsule(J[kSpine3] + Vec3(0, 0.12, -0.01), J[kHead] + Vec3(0, 0.02, 0), 0.055 * g,
                       0.05 * g, 0.04));
-  P.push_back(ellipsoid(J[kHead] + Vec3(0, 0.085 * head, 0.005), Vec3(0.078, 0.105, 0.095) * head, 0.04));
+  P.push_back(
+      ellipsoid(J[kHead] + Vec3(0, 0.085 * head, 0.005), Vec3(0.078, 0.105, 0.095) * head, 0.04));
+  const double head_top = P.back().a.y() + P.back().b.y();
   for (int side : {+1, -1}) {
-    const auto at = [&](int left_joint) { return side > 0 ? left_joint : left_joint + 1; };
+    const auto at = [side](int left_joint) { return sided(left_joint, side); };
     const Vec3 x(side, 0, 0);
-    P.push_back(capsule({0, J[kNeck].y() - 0.03, -0.015}, J[at(kLeftShoulder)], 0.06 * g, 0.055 * g, 0.05));
+    P.push_back(
+        capsule({0, J[kNeck].y() - 0.03, -0.015}, J[at(kLeftShoulder)], 0.06 * g, 0.055 * g, 0.05));
     P.push_back(capsule(J[at(kLeftShoulder)], J[at(kLeftElbow)], 0.052 * g, 0.042 * g, 0.03));
     P.push_back(capsule(J[at(kLeftElbow)], J[at(kLeftWrist)], 0.042 * g, 0.030 * g, 0.02));
     P.push_back(ellipsoid(J[at(kLeftWrist)] + 0.085 * arms * x + Vec3(0, 0, 0.005),
@@ -180,7 +210,8 @@ Design design_body(const CharacterOptions& o) {
     P.push_back(capsule(J[at(kLeftHip)], J[at(kLeftKnee)], 0.078 * g, 0.056 * g, 0.04));
     P.push_back(capsule(J[at(kLeftKnee)], J[at(kLeftAnkle)], 0.055 * g, 0.038 * g, 0.03));
     P.push_back(capsule({J[at(kLeftAnkle)].x(), 0.04, -0.045},
-                        {J[at(kLeftFoot)].x() + side * 0.005, 0.03, 0.17}, 0.042 * g, 0.03 * g, 0.03));
+                        {J[at(kLeftFoot)].x() + side * 0.005, 0.03, 0.17}, 0.042 * g, 0.03 * g,
+                        0.03));
   }
   // Bones: joint -> child (the SMPL joint whose frame moves the region).
   const auto bone = [&](int joint, const Vec3& end, double r0, double r1) {
@@ -193,7 +224,7 @@ Design design_body(const CharacterOptions& o) {
   bone(kNeck, J[kHead], 0.05, 0.05);
   bone(kHead, J[kHead] + Vec3(0, 0.19 * head, 0), 0.09, 0.09);
   for (int side : {+1, -1}) {
-    const auto at = [&](int left_joint) { return side > 0 ? left_joint : left_joint + 1; };
+    const auto at = [side](int left_joint) { return sided(left_joint, side); };
     bone(at(kLeftCollar), J[at(kLeftShoulder)], 0.06, 0.06);
     bone(at(kLeftShoulder), J[at(kLeftElbow)], 0.05, 0.042);
     bone(at(kLeftElbow), J[at(kLeftWrist)], 0.042, 0.03);
@@ -205,12 +236,12 @@ Design design_body(const CharacterOptions& o) {
     bone(at(kLeftFoot), J[at(kLeftFoot)] + Vec3(0, 0, 0.07), 0.03, 0.03);
   }
   d.clothed = o.clothed;
-  d.skirt = Skirt{J[kSpine1].y() - 0.02, knee_y + 0.10, 0.12 * hips * g, 0.29 * hips * g, 0.8, 0.01};
+  d.skirt =
+      Skirt{J[kSpine1].y() - 0.02, knee_y + 0.10, 0.12 * hips * g, 0.29 * hips * g, 0.8, 0.01};
   d.skirt_blend = 0.02;
 
   // Scale everything so the top of the head is at options.height.
-  const Part& head_part = P[4];
-  const double s = o.height / (head_part.a.y() + head_part.b.y());
+  const double s = o.height / head_top;
   for (auto& j : J) j *= s;
   for (auto& b : d.bones) {
     b.end *= s;
@@ -253,8 +284,7 @@ Mesh mesh_body(const Design& design, const CharacterOptions& options) {
       for (int64_t j = 0; j < H; ++j)
         for (int64_t i = 0; i < W; ++i) {
           const auto p = box.point(k, j, i);
-          values[(k * H + j) * W + i] =
-              static_cast<float>(design.distance(Vec3(p[0], p[1], p[2])));
+          values[(k * H + j) * W + i] = static_cast<float>(design.distance(Vec3(p[0], p[1], p[2])));
         }
   });
   // Signed distance: inside is below 0.
@@ -291,7 +321,8 @@ bool max_entropy_weights(const std::vector<Vec3>& offsets, const std::vector<dou
     double max_exponent = -1e300;
     for (size_t i = 0; i < n; ++i) max_exponent = std::max(max_exponent, l.dot(offsets[i]));
     double total = 0;
-    for (size_t i = 0; i < n; ++i) total += w[i] = prior[i] * std::exp(l.dot(offsets[i]) - max_exponent);
+    for (size_t i = 0; i < n; ++i)
+      total += w[i] = prior[i] * std::exp(l.dot(offsets[i]) - max_exponent);
     for (double& x : w) x /= total;
     return std::log(total) + max_exponent;  // the dual objective
   };
@@ -340,7 +371,7 @@ std::vector<std::vector<std::pair<int64_t, double>>> joint_regressor(
     // and the rest joints are the regressed ones anyway).
     std::vector<std::pair<int64_t, double>> fallback;
     for (double reach : {1.5, 2.0, 3.0, 4.0, 6.0}) {
-      const double radius = reach * nearest;
+      const double radius = reach * nearest + 1e-6;  // > 0 even on a vertex
       std::vector<int64_t> ids;
       std::vector<Vec3> offsets;
       std::vector<double> prior, weights;
@@ -388,7 +419,8 @@ Adjacency mesh_adjacency(const Mesh& mesh) {
     ++adjacency.offsets[e.first + 1];
     adjacency.neighbours.push_back(e.second);
   }
-  for (int64_t v = 0; v < mesh.num_vertices(); ++v) adjacency.offsets[v + 1] += adjacency.offsets[v];
+  for (int64_t v = 0; v < mesh.num_vertices(); ++v)
+    adjacency.offsets[v + 1] += adjacency.offsets[v];
   return adjacency;
 }
 
@@ -417,7 +449,8 @@ std::vector<double> skinning_weights(const Design& design, const std::array<Vec3
     double* w = &weights[v * kNumJoints];
     double nearest = 1e9;
     for (int j = 0; j < kNumJoints; ++j) {
-      w[j] = capsule_distance(vertices[v], rest[j], ends[j], design.bones[j].r0, design.bones[j].r1);
+      w[j] =
+          capsule_distance(vertices[v], rest[j], ends[j], design.bones[j].r0, design.bones[j].r1);
       nearest = std::min(nearest, w[j]);
     }
     double total = 0;
@@ -439,9 +472,11 @@ void smooth_over_mesh(std::vector<double>& weights, const Adjacency& adjacency, 
       const int64_t begin = adjacency.offsets[v], end = adjacency.offsets[v + 1];
       for (int j = 0; j < kNumJoints; ++j) {
         double sum = 0;
-        for (int64_t n = begin; n < end; ++n) sum += weights[adjacency.neighbours[n] * kNumJoints + j];
+        for (int64_t n = begin; n < end; ++n)
+          sum += weights[adjacency.neighbours[n] * kNumJoints + j];
         // Every vertex of a closed mesh has neighbours.
-        next[v * kNumJoints + j] = 0.5 * weights[v * kNumJoints + j] + 0.5 * sum / double(end - begin);
+        next[v * kNumJoints + j] =
+            0.5 * weights[v * kNumJoints + j] + 0.5 * sum / double(end - begin);
       }
     }
     weights.swap(next);
@@ -482,8 +517,8 @@ void CharacterOptions::validate() const {
   FSKIN_CHECK(height >= 0.2 && height <= 5.0, "character: --height must be in [0.2, 5] m, got {}",
               height);
   const std::pair<const char*, double> proportions[] = {
-      {"girth", girth},         {"shoulder-width", shoulder_width}, {"hip-width", hip_width},
-      {"arm-length", arm_length}, {"leg-length", leg_length},       {"head-size", head_size}};
+      {"girth", girth},           {"shoulder-width", shoulder_width}, {"hip-width", hip_width},
+      {"arm-length", arm_length}, {"leg-length", leg_length},         {"head-size", head_size}};
   for (const auto& [name, value] : proportions)
     FSKIN_CHECK(value >= 0.7 && value <= 1.3, "character: --{} must be in [0.7, 1.3], got {}", name,
                 value);
@@ -493,17 +528,16 @@ void CharacterOptions::validate() const {
 
 const std::vector<std::string>& smpl_joint_names() {
   static const std::vector<std::string> names = {
-      "pelvis",         "left_hip",      "right_hip",      "spine1",      "left_knee",
-      "right_knee",     "spine2",        "left_ankle",     "right_ankle", "spine3",
-      "left_foot",      "right_foot",    "neck",           "left_collar", "right_collar",
-      "head",           "left_shoulder", "right_shoulder", "left_elbow",  "right_elbow",
-      "left_wrist",     "right_wrist",   "left_hand",      "right_hand"};
+      "pelvis",     "left_hip",    "right_hip",    "spine1",      "left_knee",     "right_knee",
+      "spine2",     "left_ankle",  "right_ankle",  "spine3",      "left_foot",     "right_foot",
+      "neck",       "left_collar", "right_collar", "head",        "left_shoulder", "right_shoulder",
+      "left_elbow", "right_elbow", "left_wrist",   "right_wrist", "left_hand",     "right_hand"};
   return names;
 }
 
 const std::vector<int64_t>& smpl_parents() {
-  static const std::vector<int64_t> parents = {-1, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8,
-                                               9, 9, 9, 12, 13, 14, 16, 17, 18, 19, 20, 21};
+  static const std::vector<int64_t> parents = {-1, 0, 0, 0,  1,  2,  3,  4,  5,  6,  7,  8,
+                                               9,  9, 9, 12, 13, 14, 16, 17, 18, 19, 20, 21};
   return parents;
 }
 
@@ -537,14 +571,15 @@ BodyModelData make_character(const CharacterOptions& options) {
   auto weights = skinning_weights(design, rest, vertices, scale);
   if (design.clothed) blend_skirt_weights(design, vertices, weights, scale);
   smooth_over_mesh(weights, adjacency, 3);
-  data.weights = torch::from_blob(weights.data(), {V, kNumJoints}, torch::kFloat64).to(torch::kFloat32);
+  data.weights =
+      torch::from_blob(weights.data(), {V, kNumJoints}, torch::kFloat64).to(torch::kFloat32);
 
   // Pose correctives: a bulge along the normal near joint j that grows with
   // 1 - cos(theta_j) = -trace(R_j - I) / 2, i.e. -amplitude / 2 on the three
   // diagonal features of joint j (SMPL feature layout, body_model.h).
   const auto normals = to_points(vertex_normals(mesh));
   const std::pair<int, double> bulges[] = {
-      {kLeftElbow, 0.012},   {kRightElbow, 0.012},   {kLeftKnee, 0.014}, {kRightKnee, 0.014},
+      {kLeftElbow, 0.012},    {kRightElbow, 0.012},    {kLeftKnee, 0.014}, {kRightKnee, 0.014},
       {kLeftShoulder, 0.006}, {kRightShoulder, 0.006}, {kLeftHip, 0.006},  {kRightHip, 0.006},
       {kSpine1, 0.004},       {kSpine2, 0.004}};
   data.posedirs = torch::zeros({V, 3, 9 * (kNumJoints - 1)}, torch::kFloat32);
@@ -557,7 +592,8 @@ BodyModelData make_character(const CharacterOptions& options) {
       const double bulge = amplitude * scale * std::exp(-0.5 * r2);
       for (int c = 0; c < 3; ++c)
         for (int diagonal : {0, 4, 8})
-          posedirs[v][c][9 * (joint - 1) + diagonal] += static_cast<float>(-0.5 * bulge * normals[v][c]);
+          posedirs[v][c][9 * (joint - 1) + diagonal] +=
+              static_cast<float>(-0.5 * bulge * normals[v][c]);
     }
 
   // Shape directions: height (+3 % per unit, about the soles) and girth (+1 cm
@@ -566,7 +602,8 @@ BodyModelData make_character(const CharacterOptions& options) {
   auto shapedirs = data.shapedirs.accessor<float, 3>();
   for (int64_t v = 0; v < V; ++v) {
     shapedirs[v][1][0] = static_cast<float>(0.03 * vertices[v].y());
-    for (int c = 0; c < 3; ++c) shapedirs[v][c][1] = static_cast<float>(0.01 * scale * normals[v][c]);
+    for (int c = 0; c < 3; ++c)
+      shapedirs[v][c][1] = static_cast<float>(0.01 * scale * normals[v][c]);
   }
   return data;
 }

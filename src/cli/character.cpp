@@ -83,18 +83,17 @@ void register_character(CLI::App& app) {
     std::printf("wrote %s: built-in character%s, seed %llu, resolution %d\n", opt->out.c_str(),
                 opt->character.clothed ? " (clothed)" : "",
                 static_cast<unsigned long long>(opt->character.seed), opt->character.resolution);
-    std::printf("  %lld vertices, %lld faces, %lld joints, %lld shape directions\n",
-                static_cast<long long>(model.num_vertices()),
-                static_cast<long long>(mesh.num_faces()),
-                static_cast<long long>(model.num_joints()),
-                static_cast<long long>(model.num_betas()));
+    std::printf(
+        "  %lld vertices, %lld faces, %lld joints, %lld shape directions\n",
+        static_cast<long long>(model.num_vertices()), static_cast<long long>(mesh.num_faces()),
+        static_cast<long long>(model.num_joints()), static_cast<long long>(model.num_betas()));
     std::printf("  closed manifold: %s, Euler characteristic %lld, components %lld\n",
                 topology.is_closed_manifold() ? "yes" : "no",
                 static_cast<long long>(topology.euler_characteristic()),
                 static_cast<long long>(connected_components(mesh).count));
-    std::printf("  bounding box: [%.3f, %.3f, %.3f] .. [%.3f, %.3f, %.3f] m\n",
-                lo[0].item<float>(), lo[1].item<float>(), lo[2].item<float>(),
-                hi[0].item<float>(), hi[1].item<float>(), hi[2].item<float>());
+    std::printf("  bounding box: [%.3f, %.3f, %.3f] .. [%.3f, %.3f, %.3f] m\n", lo[0].item<float>(),
+                lo[1].item<float>(), lo[2].item<float>(), hi[0].item<float>(), hi[1].item<float>(),
+                hi[2].item<float>());
     if (!opt->mesh_out.empty()) {
       io::write_mesh(opt->mesh_out, mesh);
       std::printf("wrote %s\n", opt->mesh_out.c_str());

@@ -39,7 +39,7 @@ struct CubeEdge {
 };
 
 struct CaseTable {
-  std::vector<CubeEdge> edges;                                // 12
+  std::vector<CubeEdge> edges;                                 // 12
   std::array<std::vector<std::array<int, 3>>, 256> triangles;  // edge ids, CCW from outside
 };
 
@@ -189,8 +189,8 @@ Mesh iso_surface(const torch::Tensor& values, const GridBox& box,
             const float v1 = field[index + strides[axis]];
             if (inside(v1) == in0) continue;
             // Clamped away from the samples so no two vertices coincide.
-            const double t = std::clamp((iso - double(v0)) / (double(v1) - double(v0)), 1e-4,
-                                        1.0 - 1e-4);
+            const double t =
+                std::clamp((iso - double(v0)) / (double(v1) - double(v0)), 1e-4, 1.0 - 1e-4);
             auto p = box.point(k, j, i);
             p[axis] += t * box.voxel_size[axis];
             keys.push_back(3 * index + axis);
@@ -249,8 +249,8 @@ Mesh iso_surface(const torch::Tensor& values, const GridBox& box,
 torch::Tensor sample_grid(const ScalarField& field, const GridBox& box,
                           const std::array<int64_t, 3>& dims, int64_t batch_size) {
   const int64_t D = dims[0], H = dims[1], W = dims[2];
-  FSKIN_CHECK(D >= 1 && H >= 1 && W >= 1, "sample_grid: dims must be positive, got [{}, {}, {}]",
-              D, H, W);
+  FSKIN_CHECK(D >= 1 && H >= 1 && W >= 1, "sample_grid: dims must be positive, got [{}, {}, {}]", D,
+              H, W);
   FSKIN_CHECK(batch_size > 0, "sample_grid: batch_size must be positive, got {}", batch_size);
   auto out = torch::empty({D * H * W}, torch::kFloat32);
   for (int64_t start = 0; start < D * H * W; start += batch_size) {

@@ -67,9 +67,12 @@ MeshTopology analyze_topology(const Mesh& mesh) {
       forward += edges[last].second > 0;
     const size_t uses = last - first;
     ++topology.num_edges;
-    if (uses == 1) ++topology.boundary_edges;
-    else if (uses > 2) ++topology.non_manifold_edges;
-    else if (forward != 1) ++topology.misoriented_edges;
+    if (uses == 1)
+      ++topology.boundary_edges;
+    else if (uses > 2)
+      ++topology.non_manifold_edges;
+    else if (forward != 1)
+      ++topology.misoriented_edges;
     first = last;
   }
 

@@ -187,9 +187,12 @@ TEST(Character, SkirtFollowsTheLegsSmoothly) {
 TEST(Character, DeterministicPerSeedAndVariesAcrossSeeds) {
   const auto a = make_character(low_resolution(7));
   const auto b = make_character(low_resolution(7));
-  for (const auto& [x, y] : {std::pair{a.v_template, b.v_template}, {a.faces, b.faces},
-                             {a.weights, b.weights}, {a.J_regressor, b.J_regressor},
-                             {a.posedirs, b.posedirs}, {a.shapedirs, b.shapedirs}})
+  for (const auto& [x, y] : {std::pair{a.v_template, b.v_template},
+                             {a.faces, b.faces},
+                             {a.weights, b.weights},
+                             {a.J_regressor, b.J_regressor},
+                             {a.posedirs, b.posedirs},
+                             {a.shapedirs, b.shapedirs}})
     EXPECT_TRUE(torch::equal(x, y));
   const auto c = make_character(low_resolution(8));
   EXPECT_FALSE(a.v_template.sizes() == c.v_template.sizes() &&
@@ -197,7 +200,8 @@ TEST(Character, DeterministicPerSeedAndVariesAcrossSeeds) {
 }
 
 TEST(Character, ShapeDirectionsChangeHeightAndGirth) {
-  const auto posed = character().pose(torch::zeros({2, 24, 3}), torch::tensor({{1.0f, 0.0f}, {0.0f, 1.0f}}));
+  const auto posed =
+      character().pose(torch::zeros({2, 24, 3}), torch::tensor({{1.0f, 0.0f}, {0.0f, 1.0f}}));
   const auto rest = character().data().v_template;
   const float height = rest.select(1, 1).max().item<float>();
   EXPECT_NEAR(posed.vertices[0].select(1, 1).max().item<float>(), height * 1.03f, 0.005f);

@@ -35,7 +35,8 @@ TEST(IsoSurface, SphereIsClosedManifoldWithAnalyticAreaAndVolume) {
   EXPECT_EQ(topology.euler_characteristic(), 2);
   EXPECT_EQ(connected_components(mesh).count, 1);
   EXPECT_NEAR(surface_area(mesh), 4 * M_PI * r * r, 0.01 * 4 * M_PI * r * r);
-  EXPECT_NEAR(signed_volume(mesh), 4.0 / 3.0 * M_PI * r * r * r, 0.01 * 4.0 / 3.0 * M_PI * r * r * r);
+  EXPECT_NEAR(signed_volume(mesh), 4.0 / 3.0 * M_PI * r * r * r,
+              0.01 * 4.0 / 3.0 * M_PI * r * r * r);
   // Every vertex lies on the sphere (up to the linear interpolation error).
   EXPECT_LT((mesh.vertices.norm(2, 1) - r).abs().max().item<float>(), 0.01);
   // Normals point outward: along the position for a sphere at the origin.
@@ -47,10 +48,9 @@ TEST(IsoSurface, InsideConventionFlipsOrientationNotGeometry) {
   const int64_t n = 24;
   // Occupancy-like field: inside where the value is above 0.5.
   const auto occupancy = [](const torch::Tensor& p) { return 1.0 - p.norm(2, 1); };
-  const auto above =
-      iso_surface(occupancy, unit_box(n), {n, n, n}, IsoSurfaceOptions{0.5, true});
-  const auto below = iso_surface([&](const torch::Tensor& p) { return -occupancy(p); },
-                                 unit_box(n), {n, n, n}, IsoSurfaceOptions{-0.5, false});
+  const auto above = iso_surface(occupancy, unit_box(n), {n, n, n}, IsoSurfaceOptions{0.5, true});
+  const auto below = iso_surface([&](const torch::Tensor& p) { return -occupancy(p); }, unit_box(n),
+                                 {n, n, n}, IsoSurfaceOptions{-0.5, false});
   EXPECT_GT(signed_volume(above), 0.0);
   EXPECT_TRUE(torch::equal(above.vertices, below.vertices));
   EXPECT_TRUE(torch::equal(above.faces, below.faces));
@@ -93,8 +93,8 @@ TEST(IsoSurface, TwoSpheresGiveTwoComponentsAndKeepLargestPicksTheBigOne) {
 TEST(IsoSurface, AnisotropicBoxAndOffsetOrigin) {
   const GridBox box{{1.0, 2.0, 3.0}, {0.02, 0.03, 0.05}};
   const std::array<int64_t, 3> dims{20, 30, 40};  // z, y, x: box 0.8 x 0.87 x 0.95
-  const auto mesh = iso_surface(sphere_sdf(0.3, {1.4, 2.45, 3.5}), box, dims,
-                                IsoSurfaceOptions{0.0, false});
+  const auto mesh =
+      iso_surface(sphere_sdf(0.3, {1.4, 2.45, 3.5}), box, dims, IsoSurfaceOptions{0.0, false});
   EXPECT_TRUE(is_closed_manifold(mesh));
   const auto centre = mesh.vertices.mean(0);
   EXPECT_TRUE(torch::allclose(centre, torch::tensor({1.4f, 2.45f, 3.5f}), 0, 0.01));

@@ -11,10 +11,10 @@ namespace {
 // Unit cube [0, 1]^3 as 12 triangles, counter-clockwise seen from outside.
 Mesh unit_cube() {
   Mesh mesh;
-  mesh.vertices = torch::tensor({0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1,
-                                 1, 1, 1},
-                                torch::kFloat32)
-                      .reshape({8, 3});
+  mesh.vertices =
+      torch::tensor({0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1, 1, 1, 1},
+                    torch::kFloat32)
+          .reshape({8, 3});
   mesh.faces = torch::tensor({0, 2, 1, 1, 2, 3,   // z = 0, normal -z
                               4, 5, 6, 5, 7, 6,   // z = 1, normal +z
                               0, 1, 4, 1, 5, 4,   // y = 0, normal -y
@@ -32,8 +32,8 @@ Mesh translated(Mesh mesh, float dx) {
 }
 
 Mesh concatenate(const Mesh& a, const Mesh& b) {
-  return Mesh{torch::cat({a.vertices, b.vertices}),
-              torch::cat({a.faces, b.faces + a.num_vertices()}), {}};
+  return Mesh{
+      torch::cat({a.vertices, b.vertices}), torch::cat({a.faces, b.faces + a.num_vertices()}), {}};
 }
 
 TEST(MeshTopology, CubeIsClosedManifoldWithEulerTwo) {
@@ -88,7 +88,8 @@ TEST(MeshTopology, CubesSharingOneVertexArePinched) {
   second.vertices = second.vertices + 1.0f;
   auto faces = second.faces + 8;
   faces.masked_fill_(faces == 8, 7);  // its corner (0,0,0)+1 is the first cube's vertex 7
-  Mesh both{torch::cat({unit_cube().vertices, second.vertices}), torch::cat({unit_cube().faces, faces}),
+  Mesh both{torch::cat({unit_cube().vertices, second.vertices}),
+            torch::cat({unit_cube().faces, faces}),
             {}};
   const auto t = analyze_topology(both);
   EXPECT_EQ(t.boundary_edges, 0);
@@ -104,8 +105,9 @@ TEST(MeshTopology, ComponentsAndKeepLargest) {
   // Two cubes; the second one gets an extra split face so it has more faces.
   auto big = translated(unit_cube(), 3.0f);
   big.vertices = torch::cat({big.vertices, torch::tensor({{3.5f, 0.5f, 0.0f}})});
-  big.faces = torch::cat({big.faces.slice(0, 2),
-                          torch::tensor({{0, 2, 8}, {2, 3, 8}, {3, 1, 8}, {1, 0, 8}}, torch::kInt64)});
+  big.faces =
+      torch::cat({big.faces.slice(0, 2),
+                  torch::tensor({{0, 2, 8}, {2, 3, 8}, {3, 1, 8}, {1, 0, 8}}, torch::kInt64)});
   const auto mesh = concatenate(small, big);
   const auto components = connected_components(mesh);
   EXPECT_EQ(components.count, 2);

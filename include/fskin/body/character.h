@@ -28,18 +28,18 @@
 namespace fskin {
 
 struct CharacterOptions {
-  uint64_t seed = 0;      // varies the proportions slightly (see `variation`)
-  bool clothed = false;   // add the skirt
-  int resolution = 110;   // grid cells along the body's height (~20k faces)
-  double height = 1.7;    // metres, top of the head above the soles
+  uint64_t seed = 0;     // varies the proportions slightly (see `variation`)
+  bool clothed = false;  // add the skirt
+  int resolution = 110;  // grid cells along the body's height (~20k faces)
+  double height = 1.7;   // metres, top of the head above the soles
   // Proportions: multipliers of the default body, applied before the seed's variation.
-  double girth = 1.0;           // thickness of limbs and torso
+  double girth = 1.0;  // thickness of limbs and torso
   double shoulder_width = 1.0;
   double hip_width = 1.0;
   double arm_length = 1.0;
   double leg_length = 1.0;
   double head_size = 1.0;
-  double variation = 0.05;      // the seed scales each proportion by 1 +- up to this
+  double variation = 0.05;  // the seed scales each proportion by 1 +- up to this
 
   // Throws fskin::Error naming the option that is out of range.
   void validate() const;

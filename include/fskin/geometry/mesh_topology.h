@@ -9,8 +9,8 @@
 namespace fskin {
 
 struct MeshTopology {
-  int64_t num_vertices = 0;           // vertices referenced by at least one face
-  int64_t num_edges = 0;              // undirected
+  int64_t num_vertices = 0;  // vertices referenced by at least one face
+  int64_t num_edges = 0;     // undirected
   int64_t num_faces = 0;
   int64_t boundary_edges = 0;         // used by exactly one face
   int64_t non_manifold_edges = 0;     // used by more than two faces
