@@ -442,7 +442,7 @@ std::vector<double> skinning_weights(const Design& design, const std::array<Vec3
       if ((design.joints[c] - bone.end).norm() < 1e-9) child = c;
     ends[j] = child >= 0 ? rest[child] : rest[j] + (bone.end - design.joints[j]);
   }
-  const double sigma = 0.012 * scale;
+  const double sigma = 0.02 * scale;
   const int64_t V = static_cast<int64_t>(vertices.size());
   std::vector<double> weights(V * kNumJoints);
   for (int64_t v = 0; v < V; ++v) {
@@ -570,7 +570,7 @@ BodyModelData make_character(const CharacterOptions& options) {
   const auto adjacency = mesh_adjacency(mesh);
   auto weights = skinning_weights(design, rest, vertices, scale);
   if (design.clothed) blend_skirt_weights(design, vertices, weights, scale);
-  smooth_over_mesh(weights, adjacency, 3);
+  smooth_over_mesh(weights, adjacency, std::max(1, options.resolution / 20));
   data.weights =
       torch::from_blob(weights.data(), {V, kNumJoints}, torch::kFloat64).to(torch::kFloat32);
 
