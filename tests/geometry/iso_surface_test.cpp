@@ -74,6 +74,21 @@ TEST(IsoSurface, RandomFieldsGiveClosedManifolds) {
   }
 }
 
+TEST(IsoSurface, EveryCubeConfigurationGivesClosedManifolds) {
+  // Each of the 256 sign patterns on the corners of the middle cube of a 4^3
+  // grid whose other samples are outside; pairs of patterns in two adjacent
+  // cubes exercise the shared-face rule.
+  for (int mask = 1; mask < 256; ++mask) {
+    auto values = torch::zeros({4, 4, 5});
+    for (int c = 0; c < 8; ++c)
+      values[1 + (c >> 2 & 1)][1 + (c >> 1 & 1)][1 + (c & 1)] = (mask >> c) & 1;
+    values[1][1][3] = values[2][2][3] = mask & 1;  // a neighbour cube sharing the x = 2 face
+    const auto mesh = iso_surface(values, GridBox{}, IsoSurfaceOptions{0.5, true});
+    EXPECT_TRUE(is_closed_manifold(mesh)) << "mask " << mask;
+    EXPECT_GT(signed_volume(mesh), 0.0) << "mask " << mask;
+  }
+}
+
 TEST(IsoSurface, TwoSpheresGiveTwoComponentsAndKeepLargestPicksTheBigOne) {
   const int64_t n = 40;
   const auto field = [](const torch::Tensor& p) {
