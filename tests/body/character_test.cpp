@@ -2,10 +2,15 @@
 
 #include <gtest/gtest.h>
 #include <torch/torch.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
 
 #include "fskin/core/error.h"
+#include "fskin/data/pose_set.h"
 #include "fskin/geometry/mesh_topology.h"
 
 namespace fskin {
@@ -207,6 +212,37 @@ TEST(Character, ShapeDirectionsChangeHeightAndGirth) {
   EXPECT_NEAR(posed.vertices[0].select(1, 1).max().item<float>(), height * 1.03f, 0.005f);
   EXPECT_GT(signed_volume(Mesh{posed.vertices[1].contiguous(), character().data().faces, {}}),
             signed_volume(character().template_mesh()) * 1.05);
+}
+
+TEST(Character, CommandLineWritesAModelThatLoadsBackIdentically) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("fskin_character_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string model = (dir / "model.npz").string(), poses = (dir / "poses.npz").string(),
+                    mesh = (dir / "template.ply").string();
+  const std::string command =
+      std::string(FSKIN_CLI_PATH) + " character --resolution 40 --seed 3 --clothed --out " + model +
+      " --mesh-out " + mesh + " --write-poses " + poses + " > " + (dir / "log.txt").string();
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  const auto loaded = BodyModel::load(model);
+  auto options = low_resolution(3, true);
+  options.resolution = 40;
+  const auto expected = make_character(options);
+  EXPECT_TRUE(torch::equal(loaded.data().v_template, expected.v_template));
+  EXPECT_TRUE(torch::equal(loaded.data().faces, expected.faces));
+  EXPECT_TRUE(torch::equal(loaded.data().weights, expected.weights));
+  EXPECT_TRUE(torch::equal(loaded.data().posedirs, expected.posedirs));
+  EXPECT_EQ(loaded.data().joint_names, smpl_joint_names());
+  EXPECT_EQ(loaded.data().parents, smpl_parents());
+  const auto set = PoseSet::load(poses);
+  set.validate(poses, 24, smpl_joint_names());
+  EXPECT_EQ(set.size(), 5);
+  EXPECT_TRUE(std::filesystem::exists(mesh));
+  // Out-of-range options fail with a message, not a crash.
+  const std::string bad = std::string(FSKIN_CLI_PATH) + " character --resolution 4 --out " + model +
+                          " 2> " + (dir / "err.txt").string();
+  EXPECT_EQ(WEXITSTATUS(std::system(bad.c_str())), 1);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Character, RejectsBadOptions) {

@@ -12,10 +12,7 @@ namespace fskin {
 namespace {
 
 // A grid of n^3 samples covering [-1, 1]^3.
-GridBox unit_box(int64_t n) {
-  const double h = 2.0 / static_cast<double>(n - 1);
-  return GridBox{{-1.0, -1.0, -1.0}, {h, h, h}};
-}
+GridBox unit_box(int64_t n) { return GridBox::spanning({-1, -1, -1}, {1, 1, 1}, {n, n, n}); }
 
 // Signed distance to a sphere of `radius` at `centre`, negative inside.
 ScalarField sphere_sdf(double radius, std::array<double, 3> centre = {0, 0, 0}) {
@@ -141,6 +138,9 @@ TEST(SampleGrid, MatchesGridLayoutAcrossBatches) {
   const auto grid = sample_grid(field, box, {3, 4, 5}, 7);
   ASSERT_EQ(grid.sizes(), (std::vector<int64_t>{3, 4, 5}));
   const auto p = box.point(2, 1, 3);
+  const auto spanning = GridBox::spanning({0.5, -1.0, 2.0}, {0.9, -0.4, 2.6}, {3, 4, 5});
+  for (int axis = 0; axis < 3; ++axis)
+    EXPECT_NEAR(spanning.voxel_size[axis], box.voxel_size[axis], 1e-12);
   EXPECT_NEAR(grid[2][1][3].item<float>(), p[0] + 10 * p[1] + 100 * p[2], 1e-3);
 }
 

@@ -24,6 +24,16 @@ struct GridBox {
   std::array<double, 3> origin{0.0, 0.0, 0.0};      // x, y, z of sample (0, 0, 0), metres
   std::array<double, 3> voxel_size{1.0, 1.0, 1.0};  // spacing along x, y, z, metres
 
+  // The grid with dims {D, H, W} whose corner samples lie on the corners of the
+  // box [lo, hi] (x, y, z), as align-corners grids do.
+  static GridBox spanning(const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                          const std::array<int64_t, 3>& dims) {
+    GridBox box{lo, {}};
+    for (int axis = 0; axis < 3; ++axis)
+      box.voxel_size[axis] = (hi[axis] - lo[axis]) / static_cast<double>(dims[2 - axis] - 1);
+    return box;
+  }
+
   std::array<double, 3> point(int64_t k, int64_t j, int64_t i) const {
     return {origin[0] + static_cast<double>(i) * voxel_size[0],
             origin[1] + static_cast<double>(j) * voxel_size[1],
