@@ -578,16 +578,23 @@ BodyModelData make_character(const CharacterOptions& options) {
   // 1 - cos(theta_j) = -trace(R_j - I) / 2, i.e. -amplitude / 2 on the three
   // diagonal features of joint j (SMPL feature layout, body_model.h).
   const auto normals = to_points(vertex_normals(mesh));
-  const std::pair<int, double> bulges[] = {
-      {kLeftElbow, 0.012},    {kRightElbow, 0.012},    {kLeftKnee, 0.014}, {kRightKnee, 0.014},
-      {kLeftShoulder, 0.006}, {kRightShoulder, 0.006}, {kLeftHip, 0.006},  {kRightHip, 0.006},
-      {kSpine1, 0.004},       {kSpine2, 0.004}};
+  // Amplitude and Gaussian radius (metres at 1.7 m): the radius reaches the
+  // surface around the joint (deep inside the torso, close under the skin at
+  // the elbows).
+  struct Bulge {
+    int joint;
+    double amplitude, radius;
+  };
+  const Bulge bulges[] = {{kLeftElbow, 0.012, 0.045},   {kRightElbow, 0.012, 0.045},
+                          {kLeftKnee, 0.014, 0.05},     {kRightKnee, 0.014, 0.05},
+                          {kLeftShoulder, 0.006, 0.07}, {kRightShoulder, 0.006, 0.07},
+                          {kLeftHip, 0.006, 0.09},      {kRightHip, 0.006, 0.09},
+                          {kSpine1, 0.005, 0.12},       {kSpine2, 0.005, 0.12}};
   data.posedirs = torch::zeros({V, 3, 9 * (kNumJoints - 1)}, torch::kFloat32);
   auto posedirs = data.posedirs.accessor<float, 3>();
-  const double falloff = 0.045 * scale;
-  for (const auto& [joint, amplitude] : bulges)
+  for (const auto& [joint, amplitude, radius] : bulges)
     for (int64_t v = 0; v < V; ++v) {
-      const double r2 = (vertices[v] - rest[joint]).squaredNorm() / (falloff * falloff);
+      const double r2 = (vertices[v] - rest[joint]).squaredNorm() / std::pow(radius * scale, 2);
       if (r2 > 16) continue;
       const double bulge = amplitude * scale * std::exp(-0.5 * r2);
       for (int c = 0; c < 3; ++c)
