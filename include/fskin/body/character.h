@@ -7,8 +7,10 @@
 // component. It is rigged to SMPL's 24-joint tree (names, parents and order of
 // SMPL) in a T-pose: +Y up, +Z forward, arms horizontal along +-X, feet on y = 0
 // (docs/conventions.md). It comes with
-//   - J_regressor: convex weights over a ring of vertices around each joint;
-//     the regressed joints are the rest joints of everything below,
+//   - J_regressor: convex (maximum-entropy) weights over a ring of vertices
+//     around each joint that regress the designed joint; the regressed joints
+//     are the rest joints of everything below, and the plain and clothed
+//     variants share them,
 //   - skinning weights: a softmax over the distances to per-bone capsules,
 //     smoothed over the mesh (>= 0, rows sum to 1),
 //   - posedirs: bulges along the normal near elbows, knees, shoulders, hips and
@@ -18,7 +20,8 @@
 // The clothed variant adds a flared skirt (a solid elliptic cone from the waist
 // to above the knees, part of the same closed surface) whose weights blend
 // pelvis, hips and knees by height: LBS then deforms it like loose clothing.
-// Deterministic: the same options give bit-identical tensors.
+// Deterministic: the same options give bit-identical tensors, with any number
+// of threads.
 #include <cstdint>
 #include <string>
 #include <vector>
