@@ -8,8 +8,8 @@
 #include <limits>
 #include <sstream>
 
-#include "export/vertex_normals.h"
 #include "fskin/core/error.h"
+#include "fskin/geometry/mesh_topology.h"
 #include "fskin/core/tensor_checks.h"
 #include "fskin/geometry/mesh.h"
 #include "fskin/util/atomic_file.h"
@@ -171,7 +171,7 @@ void write_gltf_animation(const std::string& path, const MeshAnimation& animatio
   const auto frames = animation.frames.contiguous();
   std::vector<torch::Tensor> normals;
   for (int64_t t = 0; t < num_frames; ++t)
-    normals.push_back(detail::area_weighted_vertex_normals(Mesh{frames[t], animation.faces, {}}));
+    normals.push_back(vertex_normals(Mesh{frames[t], animation.faces, {}}));
 
   tinygltf::Model model;
   model.asset.version = "2.0";

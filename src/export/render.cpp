@@ -7,8 +7,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "export/vertex_normals.h"
 #include "fskin/core/error.h"
+#include "fskin/geometry/mesh_topology.h"
 
 namespace fskin {
 namespace {
@@ -51,10 +51,12 @@ std::vector<Fragment> rasterize(const float* vertices, const int64_t* faces, int
     if (!in_front) continue;
     const float area = edge(screen[0], screen[1], screen[2]);
     if (area == 0.0f) continue;
-    const int x0 = std::max(0, static_cast<int>(std::floor(std::min({screen[0].x(), screen[1].x(), screen[2].x()}))));
-    const int x1 = std::min(width - 1, static_cast<int>(std::ceil(std::max({screen[0].x(), screen[1].x(), screen[2].x()}))));
-    const int y0 = std::max(0, static_cast<int>(std::floor(std::min({screen[0].y(), screen[1].y(), screen[2].y()}))));
-    const int y1 = std::min(height - 1, static_cast<int>(std::ceil(std::max({screen[0].y(), screen[1].y(), screen[2].y()}))));
+    const Eigen::Vector2f lower = screen[0].cwiseMin(screen[1]).cwiseMin(screen[2]);
+    const Eigen::Vector2f upper = screen[0].cwiseMax(screen[1]).cwiseMax(screen[2]);
+    const int x0 = std::max(0, static_cast<int>(std::floor(lower.x())));
+    const int x1 = std::min(width - 1, static_cast<int>(std::ceil(upper.x())));
+    const int y0 = std::max(0, static_cast<int>(std::floor(lower.y())));
+    const int y1 = std::min(height - 1, static_cast<int>(std::ceil(upper.y())));
     for (int y = y0; y <= y1; ++y) {
       for (int x = x0; x <= x1; ++x) {
         const Eigen::Vector2f p(x + 0.5f, y + 0.5f);
@@ -201,7 +203,7 @@ Image render_mesh(const Mesh& mesh, const RenderOptions& options) {
               "render_mesh: supersampling must be within 1..8, got {}", options.supersampling);
   const auto vertices = mesh.vertices.contiguous();
   const auto faces = mesh.faces.contiguous();
-  const auto normals = detail::area_weighted_vertex_normals(mesh).contiguous();
+  const auto normals = vertex_normals(mesh).contiguous();
   const auto colors = mesh.colors.defined() ? mesh.colors.to(torch::kFloat32).div(255).contiguous()
                                             : torch::Tensor();
   const float* vertex_data = vertices.data_ptr<float>();
@@ -250,7 +252,8 @@ Image render_mesh(const Mesh& mesh, const RenderOptions& options) {
         for (int k = 0; k < 3; ++k) {
           position += b[k] * Eigen::Map<const Eigen::Vector3f>(vertex_data + 3 * corner[k]);
           normal += b[k] * Eigen::Map<const Eigen::Vector3f>(normal_data + 3 * corner[k]);
-          if (color_data) albedo += b[k] * Eigen::Map<const Eigen::Vector3f>(color_data + 3 * corner[k]);
+          if (color_data)
+            albedo += b[k] * Eigen::Map<const Eigen::Vector3f>(color_data + 3 * corner[k]);
         }
         const Eigen::Vector3f to_viewer = (camera.eye - position).normalized();
         // Vertices without faces of their own have zero normals; fall back to
@@ -277,7 +280,8 @@ Image render_mesh(const Mesh& mesh, const RenderOptions& options) {
         for (int sx = 0; sx < samples; ++sx)
           sum += shaded[static_cast<size_t>(y * samples + sy) * width + x * samples + sx];
       uint8_t* out = image.pixel(x, y);
-      for (int c = 0; c < 3; ++c) out[c] = static_cast<uint8_t>(std::lround(255.0f * weight * sum[c]));
+      for (int c = 0; c < 3; ++c)
+        out[c] = static_cast<uint8_t>(std::lround(255.0f * weight * sum[c]));
     }
   }
   return image;

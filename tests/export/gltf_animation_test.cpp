@@ -2,24 +2,17 @@
 
 #include <gtest/gtest.h>
 #include <torch/torch.h>
-#include <unistd.h>
 
 #include <filesystem>
 
 #include "fskin/core/error.h"
 #include "fskin/util/atomic_file.h"
+#include "test_util.h"
 
 namespace fskin {
 namespace {
 
 namespace fs = std::filesystem;
-
-fs::path fresh_dir(const std::string& name) {
-  const auto dir = fs::temp_directory_path() / ("fskin_gltf_" + name + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 // A tetrahedron that moves and deforms over `num_frames` frames.
 MeshAnimation moving_tetrahedron(int64_t num_frames) {
@@ -51,7 +44,7 @@ void expect_round_trip(const std::string& path, const MeshAnimation& written) {
 }
 
 TEST(GltfAnimation, BinaryRoundTrip) {
-  const auto dir = fresh_dir("glb");
+  const auto dir = testing::temp_dir("gltf_glb");
   const auto path = (dir / "anim.glb").string();
   expect_round_trip(path, moving_tetrahedron(6));
   EXPECT_EQ(read_file(path).substr(0, 4), "glTF");  // GLB magic
@@ -61,7 +54,7 @@ TEST(GltfAnimation, BinaryRoundTrip) {
 }
 
 TEST(GltfAnimation, EmbeddedJsonRoundTripWithoutColours) {
-  const auto dir = fresh_dir("json");
+  const auto dir = testing::temp_dir("gltf_json");
   auto animation = moving_tetrahedron(3);
   animation.colors = torch::Tensor();
   const auto path = (dir / "anim.gltf").string();
@@ -74,14 +67,14 @@ TEST(GltfAnimation, EmbeddedJsonRoundTripWithoutColours) {
 }
 
 TEST(GltfAnimation, SingleFrameIsAStaticMesh) {
-  const auto dir = fresh_dir("static");
+  const auto dir = testing::temp_dir("gltf_static");
   const auto path = (dir / "still.glb").string();
   expect_round_trip(path, moving_tetrahedron(1));
   fs::remove_all(dir);
 }
 
 TEST(GltfAnimation, BadInputThrows) {
-  const auto dir = fresh_dir("bad");
+  const auto dir = testing::temp_dir("gltf_bad");
   const auto path = (dir / "bad.glb").string();
   const auto good = moving_tetrahedron(3);
   auto bad = good;
@@ -99,14 +92,15 @@ TEST(GltfAnimation, BadInputThrows) {
   bad = good;
   bad.frames = good.frames.clone();
   bad.frames[2][1][0] = std::nanf("");
-  EXPECT_THROW(write_gltf_animation(path, bad), Error);
+  testing::expect_error([&] { write_gltf_animation(path, bad); }, {"bad.glb", "frame 2"});
   bad = good;
   bad.fps = 0;
   EXPECT_THROW(write_gltf_animation(path, bad), Error);
-  EXPECT_THROW(write_gltf_animation((dir / "anim.obj").string(), good), Error);
+  testing::expect_error([&] { write_gltf_animation((dir / "anim.obj").string(), good); },
+                        {"anim.obj", ".glb"});
   EXPECT_FALSE(fs::exists(path));
   write_file_atomically(path, "not a glTF file");
-  EXPECT_THROW(read_gltf_animation(path), Error);
+  testing::expect_error([&] { read_gltf_animation(path); }, {"bad.glb", "not a readable glTF"});
   EXPECT_THROW(read_gltf_animation((dir / "missing.glb").string()), Error);
   fs::remove_all(dir);
 }
