@@ -195,6 +195,9 @@ Camera frame_camera(const BoundingBox& box, const ViewAngles& angles, double asp
 Image render_mesh(const Mesh& mesh, const RenderOptions& options) {
   mesh.validate("render_mesh: mesh");
   FSKIN_CHECK(mesh.num_faces() > 0, "render_mesh: mesh has no faces");
+  FSKIN_CHECK(!mesh.colors.defined() || mesh.colors.scalar_type() == torch::kUInt8,
+              "render_mesh: mesh colors must be uint8 (0..255), got {}",
+              std::string(c10::toString(mesh.colors.scalar_type())));
   FSKIN_CHECK(options.width > 0 && options.height > 0 && options.width <= 16384 &&
                   options.height <= 16384,
               "render_mesh: picture size must be within 1..16384, got {}x{}", options.width,

@@ -234,6 +234,8 @@ TEST(Render, BadInputThrows) {
   Mesh wrong_colors = sphere;
   wrong_colors.colors = torch::zeros({2, 3}, torch::kUInt8);
   EXPECT_THROW(render_mesh(wrong_colors, options), Error);
+  wrong_colors.colors = torch::zeros({sphere.num_vertices(), 3});
+  testing::expect_error([&] { render_mesh(wrong_colors, options); }, {"colors", "uint8"});
   RenderOptions bad = options;
   bad.supersampling = 0;
   EXPECT_THROW(render_mesh(sphere, bad), Error);
