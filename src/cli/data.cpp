@@ -1,4 +1,5 @@
 // fskin data build: posed-scan datasets (points + ground-truth occupancy per frame).
+// fskin data stick: the 2D stick toy set of SNARF sec. 4.1 in the same layout.
 #include <torch/torch.h>
 
 #include <cstdio>
@@ -6,6 +7,7 @@
 #include "cli/commands.h"
 #include "fskin/body/body_model.h"
 #include "fskin/data/dataset_builder.h"
+#include "fskin/data/stick2d.h"
 
 namespace fskin::cli {
 
@@ -56,6 +58,37 @@ void register_data(CLI::App& app) {
     options.progress = !opt->quiet;
     const auto summary = build_dataset(model, poses, ood, options);
     std::printf("%s: %s\n", opt->out.c_str(), summary.to_string().c_str());
+  });
+
+  auto stick_opt = std::make_shared<StickDatasetOptions>();
+  auto stick = std::make_shared<StickOptions>();
+  auto* stick_cmd = cmd->add_subcommand(
+      "stick", "The 2D stick toy set (SNARF sec. 4.1): training angles in [-60, 60] degrees, "
+               "test_ood in [-120, -60] U [60, 120]");
+  stick_cmd->add_option("--out", stick_opt->out_dir, "output directory")->required();
+  stick_cmd->add_flag("--object", stick->with_object,
+                      "add the separate rigid object the stick can cross (topology change)");
+  stick_cmd->add_option("--train", stick_opt->train, "training frames")->check(CLI::PositiveNumber);
+  stick_cmd->add_option("--val", stick_opt->val, "validation frames")->check(CLI::NonNegativeNumber);
+  stick_cmd->add_option("--test", stick_opt->test_within, "test frames within the training angles")
+      ->check(CLI::NonNegativeNumber);
+  stick_cmd->add_option("--ood", stick_opt->test_ood, "extrapolation test frames")
+      ->check(CLI::NonNegativeNumber);
+  stick_cmd->add_option("--points", stick_opt->points_per_frame,
+                        "points per frame (half uniform, half near the outline)")
+      ->check(CLI::Range(int64_t{2}, int64_t{10000000}));
+  stick_cmd->add_option("--seed", stick_opt->seed, "random seed");
+  stick_cmd->add_flag("--quiet", [stick_opt](int64_t) { stick_opt->progress = false; },
+                      "no progress bar");
+  stick_cmd->callback([stick_opt, stick] {
+    const auto frames = build_stick_dataset(*stick, *stick_opt);
+    std::printf("%s: %lld stick frames written (train %lld, val %lld, test_within %lld, "
+                "test_ood %lld), %lld points each\n",
+                stick_opt->out_dir.c_str(), static_cast<long long>(frames),
+                static_cast<long long>(stick_opt->train), static_cast<long long>(stick_opt->val),
+                static_cast<long long>(stick_opt->test_within),
+                static_cast<long long>(stick_opt->test_ood),
+                static_cast<long long>(stick_opt->points_per_frame));
   });
 }
 

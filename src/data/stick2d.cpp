@@ -4,13 +4,19 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <functional>
+
+#include <nlohmann/json.hpp>
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "fskin/data/random.h"
 #include "fskin/skeleton/forward_kinematics.h"
 #include "fskin/skeleton/rotations.h"
+#include "fskin/util/atomic_file.h"
+#include "fskin/util/progress.h"
+#include "fskin/version.h"
 
 namespace fskin {
 namespace {
@@ -301,6 +307,94 @@ std::vector<DatasetFrame> make_stick_frames(const StickOptions& options, const t
     frames.push_back(std::move(frame));
   }
   return frames;
+}
+
+}  // namespace fskin
+
+namespace fskin {
+
+int64_t build_stick_dataset(const StickOptions& stick, const StickDatasetOptions& options) {
+  namespace fs = std::filesystem;
+  stick.validate();
+  FSKIN_CHECK(!options.out_dir.empty(), "stick dataset: --out is empty");
+  FSKIN_CHECK(options.train > 0 && options.val >= 0 && options.test_within >= 0 &&
+                  options.test_ood >= 0,
+              "stick dataset: need train > 0 frames and val/test counts >= 0");
+  const auto skeleton = stick_skeleton(stick);
+  const std::vector<std::pair<std::string, int64_t>> splits = {
+      {"train", options.train},
+      {"val", options.val},
+      {"test_within", options.test_within},
+      {"test_ood", options.test_ood}};
+  nlohmann::json split_files = nlohmann::json::object();
+  int64_t total = 0;
+  for (const auto& [name, count] : splits) total += count;
+  ProgressBar progress("building " + options.out_dir, total, options.progress);
+  for (size_t s = 0; s < splits.size(); ++s) {
+    const auto& [name, count] = splits[s];
+    split_files[name] = nlohmann::json::array();
+    if (count == 0) continue;
+    // Each split draws its own angles and points from the seed.
+    Rng split_rng = Rng::for_item(options.seed, s);
+    const auto angles = stick_angles(count, name == "test_ood", split_rng.next_u64());
+    const auto frames = make_stick_frames(stick, angles, options.points_per_frame,
+                                          options.noise_sigma, split_rng.next_u64());
+    for (size_t k = 0; k < frames.size(); ++k) {
+      const std::string file = fmt::format("{}_{:05d}.npz", name, k);
+      frames[k].save((fs::path(options.out_dir) / file).string());
+      split_files[name].push_back(file);
+      progress.advance(1, file);
+    }
+  }
+  DatasetFrame canonical;
+  canonical.points = torch::zeros({0, 3});
+  canonical.occupancy = torch::zeros({0}, torch::kUInt8);
+  canonical.bone_transforms = torch::eye(4).expand({2, 4, 4}).contiguous();
+  canonical.bone_transforms_rest = canonical.bone_transforms;
+  canonical.pose = torch::zeros({2, 3});
+  canonical.trans = torch::zeros({3});
+  // The canonical shape's bounds (stick and object) enlarged 10%.
+  double lo[2] = {0.0, -stick.half_width}, hi[2] = {2 * stick.bone_length, stick.half_width};
+  for (int a = 0; stick.with_object && a < 2; ++a) {
+    lo[a] = std::min(lo[a], stick.object_centre[a] - stick.object_radius);
+    hi[a] = std::max(hi[a], stick.object_centre[a] + stick.object_radius);
+  }
+  for (int a = 0; a < 2; ++a) {
+    const double centre = 0.5 * (lo[a] + hi[a]), half = 0.55 * (hi[a] - lo[a]);
+    lo[a] = centre - half;
+    hi[a] = centre + half;
+  }
+  canonical.box = torch::tensor({lo[0], lo[1], 0.0, hi[0], hi[1], 0.0}, torch::kFloat32).reshape({2, 3});
+  canonical.save((fs::path(options.out_dir) / "canonical.npz").string());
+  const nlohmann::json manifest = {
+      {"format", "fskin-dataset"},
+      {"format_version", 1},
+      {"fskin_version", FSKIN_VERSION},
+      {"kind", "stick2d"},
+      {"stick",
+       {{"bone_length", stick.bone_length},
+        {"half_width", stick.half_width},
+        {"with_object", stick.with_object},
+        {"object_centre", stick.object_centre},
+        {"object_radius", stick.object_radius},
+        {"train_degrees", kStickTrainDegrees},
+        {"extrapolation_degrees", kStickExtrapolationDegrees}}},
+      {"num_joints", 2},
+      {"joint_names", skeleton.joint_names},
+      {"canonical_pose", "rest"},
+      {"seed", options.seed},
+      {"sampling",
+       {{"uniform_points", options.points_per_frame / 2},
+        {"surface_points", options.points_per_frame - options.points_per_frame / 2},
+        {"box_scale", 1.1},
+        {"noise_sigma", options.noise_sigma}}},
+      {"frames", total},
+      {"splits", split_files},
+      {"complete", true},
+  };
+  write_file_atomically((fs::path(options.out_dir) / "manifest.json").string(),
+                        manifest.dump(2) + "\n");
+  return total;
 }
 
 }  // namespace fskin

@@ -5,8 +5,10 @@
 
 #include <cmath>
 
+#include "fskin/data/dataset.h"
 #include "fskin/data/random.h"
 #include "fskin/skeleton/lbs.h"
+#include "fskin/util/atomic_file.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -123,6 +125,44 @@ TEST(Stick2d, FramesAreDeterministicAndLabelledByTheDefinition) {
     EXPECT_NEAR(surface_inside, 0.5, 0.1);  // noise straddles the outline
     EXPECT_TRUE(torch::allclose(a[k].pose.select(1, 2), angles[k]));
   }
+}
+
+}  // namespace
+}  // namespace fskin
+
+namespace fskin {
+namespace {
+
+TEST(Stick2d, DatasetOnDiskIsReadByDatasetAndReproducible) {
+  const auto a = testing::temp_dir("stick_a"), b = testing::temp_dir("stick_b");
+  StickOptions stick;
+  stick.with_object = true;
+  StickDatasetOptions options;
+  options.train = 6;
+  options.val = 1;
+  options.test_within = 2;
+  options.test_ood = 3;
+  options.points_per_frame = 400;
+  options.progress = false;
+  options.out_dir = a.string();
+  EXPECT_EQ(build_stick_dataset(stick, options), 12);
+  options.out_dir = b.string();
+  build_stick_dataset(stick, options);
+  for (const auto& entry : std::filesystem::directory_iterator(a))
+    EXPECT_EQ(read_file(entry.path().string()),
+              read_file((b / entry.path().filename()).string()))
+        << entry.path();
+  const auto ood = Dataset::load(a.string(), "test_ood");
+  ASSERT_EQ(ood.size(), 3);
+  const auto angles = ood.frame(0).pose.select(1, 2);
+  EXPECT_GE(angles.abs().min().item<float>(), kStickTrainDegrees * M_PI / 180 - 1e-5);
+  const auto train = Dataset::load(a.string(), "train");
+  EXPECT_LE(train.frame(0).pose.abs().max().item<float>(), kStickTrainDegrees * M_PI / 180 + 1e-5);
+  Rng rng(1);
+  const auto batch = train.sample_batch(2, 100, 20, rng);
+  EXPECT_EQ(batch.points.sizes(), (std::vector<int64_t>{2, 120, 3}));
+  std::filesystem::remove_all(a);
+  std::filesystem::remove_all(b);
 }
 
 }  // namespace

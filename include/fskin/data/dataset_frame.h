@@ -12,8 +12,8 @@
 //   pose                 (J, 3)    float32  axis-angle
 //   trans                (3,)      float32  root translation
 //   box                  (2, 3)    float32  min / max corner of the uniform samples' box
-//   vertices             (V, 3)    float32  the posed mesh
-//   faces                (F, 3)    int64
+//   vertices             (V, 3)    float32  the posed mesh (optional)
+//   faces                (F, 3)    int64    (with vertices)
 #include <torch/types.h>
 
 #include <string>
@@ -24,7 +24,8 @@ struct DatasetFrame {
   torch::Tensor points, occupancy;
   int64_t num_uniform = 0;
   torch::Tensor bone_transforms, bone_transforms_rest, pose, trans, box;
-  torch::Tensor vertices, faces;  // undefined when loaded without the mesh
+  torch::Tensor vertices, faces;  // undefined when loaded without the mesh or when
+                                  // the frame has none (the 2D stick set)
 
   int64_t num_points() const { return points.defined() ? points.size(0) : 0; }
   // The uniform (IoU_bbox) and near-surface (IoU_surf) halves.

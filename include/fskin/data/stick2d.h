@@ -14,6 +14,7 @@
 #include <torch/types.h>
 
 #include <array>
+#include <string>
 #include <cstdint>
 #include <vector>
 
@@ -64,5 +65,20 @@ torch::Tensor stick_angles(int64_t count, bool extrapolate, uint64_t seed);
 std::vector<DatasetFrame> make_stick_frames(const StickOptions& options, const torch::Tensor& angles,
                                             int64_t points_per_frame, double noise_sigma,
                                             uint64_t seed);
+
+struct StickDatasetOptions {
+  std::string out_dir;
+  // Frames per split; test_ood uses the extrapolation angles.
+  int64_t train = 500, val = 50, test_within = 100, test_ood = 100;
+  int64_t points_per_frame = 20000;
+  double noise_sigma = 0.01;
+  uint64_t seed = 0;
+  bool progress = true;
+};
+
+// Writes the stick set in the dataset layout of build_dataset() (frame files,
+// canonical.npz, manifest.json; canonical = rest pose) so Dataset reads it.
+// Deterministic: a re-run writes the same bytes. Returns the frames written.
+int64_t build_stick_dataset(const StickOptions& stick, const StickDatasetOptions& options);
 
 }  // namespace fskin
