@@ -20,7 +20,8 @@ class InsideTest {
   InsideTest(InsideTest&&) noexcept;
   InsideTest& operator=(InsideTest&&) noexcept;
 
-  // points [N, 3] float -> occupancy [N] uint8 (1 = inside). Parallel over points.
+  // points [N, 3] float -> occupancy [N] uint8 (1 = inside). Parallel over points
+  // on at::get_num_threads() threads.
   torch::Tensor contains(const torch::Tensor& points) const;
 
   // Number of rays cast per point (odd, so the vote has no ties).
