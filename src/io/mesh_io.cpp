@@ -1,6 +1,7 @@
 #include "fskin/io/mesh_io.h"
 
 #include <fmt/format.h>
+#include <torch/torch.h>
 // tinyobjloader is compiled here (its single-header mode) rather than linked, so the
 // build needs no find_package for it and the binary no extra shared library.
 #define TINYOBJLOADER_IMPLEMENTATION
@@ -110,7 +111,7 @@ PlyHeader parse_ply_header(const std::string& bytes, const std::string& path) {
               "{}: not a PLY file (first line is not 'ply')", path);
   const size_t end = bytes.find("\nend_header");
   FSKIN_CHECK(end != std::string::npos, "{}: bad PLY header: no 'end_header'", path);
-  size_t body = bytes.find('\n', end);
+  const size_t body = bytes.find('\n', end + 1);
   FSKIN_CHECK(body != std::string::npos, "{}: bad PLY header: no newline after 'end_header'",
               path);
   PlyHeader header;
@@ -262,6 +263,12 @@ Mesh read_ply(const std::string& path) {
     // Which property feeds which output: x,y,z -> 0..2, red,green,blue -> 3..5.
     std::vector<int> role(element.properties.size(), -1);
     int face_list = -1;
+    // Every instance of an element with properties takes at least one byte; checked
+    // before reserving memory for what a damaged header may announce.
+    FSKIN_CHECK(element.properties.empty() ||
+                    static_cast<uint64_t>(element.count) <= bytes.size() - header.body_offset,
+                "{}: truncated PLY data: header announces {} '{}' elements, the body has {} bytes",
+                path, element.count, element.name, bytes.size() - header.body_offset);
     if (is_vertex) {
       FSKIN_CHECK(!have_vertices, "{}: bad PLY header: two 'vertex' elements", path);
       have_vertices = true;
@@ -302,7 +309,12 @@ Mesh read_ply(const std::string& path) {
         if (!property.is_list) {
           const double value = reader.read(property.type, where);
           if (role[p] >= 0 && role[p] < 3) {
-            vertices[static_cast<size_t>(i) * 3 + role[p]] = static_cast<float>(value);
+            // Out-of-range doubles become inf (converting them is undefined behaviour), which
+            // Mesh::validate then rejects like NaN.
+            vertices[static_cast<size_t>(i) * 3 + role[p]] =
+                std::isfinite(value) && std::abs(value) > std::numeric_limits<float>::max()
+                    ? (value > 0 ? 1.f : -1.f) * std::numeric_limits<float>::infinity()
+                    : static_cast<float>(value);
           } else if (role[p] >= 3) {
             colors[static_cast<size_t>(i) * 3 + role[p] - 3] = color_channel(value, property.type);
           }
@@ -363,41 +375,53 @@ void write_ply(const std::string& path, const Mesh& mesh) {
 
 Mesh read_obj(const std::string& path) {
   const std::string text = read_file(path);
-  // tinyobjloader silently reads "nan" and "inf" coordinates as 0, so reject them first.
+  // One pass over the 'v' lines first: tinyobjloader silently reads "nan" and "inf" as 0,
+  // and fills absent vertex colours with 1.0, so neither can be told apart afterwards.
   std::istringstream lines(text);
   std::string line;
+  bool every_vertex_colored = true;
+  int64_t vertex_lines = 0;
   for (int64_t number = 1; std::getline(lines, line); ++number) {
     std::istringstream words(line.substr(0, line.find('#')));
     std::string word;
     if (!(words >> word) || word != "v") continue;
+    int values = 0;
     while (words >> word) {
+      ++values;
       std::transform(word.begin(), word.end(), word.begin(),
                      [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
       const size_t sign = word[0] == '-' || word[0] == '+' ? 1 : 0;
       FSKIN_CHECK(word.compare(sign, 3, "nan") != 0 && word.compare(sign, 3, "inf") != 0,
                   "{}: line {}: non-finite vertex coordinate: {}", path, number, line);
     }
+    ++vertex_lines;
+    every_vertex_colored = every_vertex_colored && values == 6;  // "v x y z r g b"
   }
   tinyobj::ObjReaderConfig config;
   // Triangulated here instead of by tinyobjloader, which drops quads with out-of-range
   // indices with only a warning; Mesh::validate then reports them.
   config.triangulate = false;
-  config.vertex_color = false;
+  config.vertex_color = true;
   tinyobj::ObjReader reader;
   // ParseFromString ignores 'mtllib': materials are not part of a fskin Mesh.
   FSKIN_CHECK(reader.ParseFromString(text, "", config), "{}: cannot parse OBJ: {}", path,
               reader.Error());
-  const auto& positions = reader.GetAttrib().vertices;
+  const auto& attrib = reader.GetAttrib();
   std::vector<int64_t> corners, counts;
   for (const auto& shape : reader.GetShapes()) {
     for (const auto& index : shape.mesh.indices) corners.push_back(index.vertex_index);
     for (const auto n : shape.mesh.num_face_vertices) counts.push_back(n);
   }
   Mesh mesh;
-  std::vector<float> vertices(positions.begin(), positions.end());
+  std::vector<float> vertices(attrib.vertices.begin(), attrib.vertices.end());
   const auto vertex_count = static_cast<int64_t>(vertices.size() / 3);
   mesh.vertices = torch::from_blob(vertices.data(), {vertex_count, 3}, torch::kFloat32).clone();
   mesh.faces = fan_triangulate(corners, counts, path);
+  if (vertex_lines > 0 && every_vertex_colored && attrib.colors.size() == attrib.vertices.size()) {
+    std::vector<uint8_t> colors;
+    for (float channel : attrib.colors) colors.push_back(color_channel(channel, PlyType::kFloat32));
+    mesh.colors = torch::from_blob(colors.data(), {vertex_count, 3}, torch::kUInt8).clone();
+  }
   mesh.validate(path);
   return mesh;
 }
@@ -406,17 +430,25 @@ void write_obj(const std::string& path, const Mesh& mesh) {
   mesh.validate(path);
   const torch::Tensor vertices = mesh.vertices.contiguous();
   const torch::Tensor faces = mesh.faces.contiguous();
+  torch::Tensor colors;
+  if (mesh.colors.defined()) colors = mesh.colors.to(torch::kUInt8).contiguous();
   const float* v = vertices.data_ptr<float>();
   const int64_t* f = faces.data_ptr<int64_t>();
+  const uint8_t* c = colors.defined() ? colors.data_ptr<uint8_t>() : nullptr;
   fmt::memory_buffer out;
-  fmt::format_to(std::back_inserter(out), "# written by fskin\n");
-  // fmt prints the shortest text that reads back as the same float.
+  auto text = std::back_inserter(out);
+  fmt::format_to(text, "# written by fskin\n");
+  // fmt prints the shortest text that reads back as the same float, so the round trip is
+  // exact. Colours follow the coordinates as 0..1 values (the MeshLab convention).
   for (int64_t i = 0; i < mesh.num_vertices(); ++i) {
-    fmt::format_to(std::back_inserter(out), "v {} {} {}\n", v[3 * i], v[3 * i + 1], v[3 * i + 2]);
+    fmt::format_to(text, "v {} {} {}", v[3 * i], v[3 * i + 1], v[3 * i + 2]);
+    if (c) {
+      fmt::format_to(text, " {} {} {}", c[3 * i] / 255.f, c[3 * i + 1] / 255.f, c[3 * i + 2] / 255.f);
+    }
+    fmt::format_to(text, "\n");
   }
   for (int64_t i = 0; i < mesh.num_faces(); ++i) {
-    fmt::format_to(std::back_inserter(out), "f {} {} {}\n", f[3 * i] + 1, f[3 * i + 1] + 1,
-                   f[3 * i + 2] + 1);
+    fmt::format_to(text, "f {} {} {}\n", f[3 * i] + 1, f[3 * i + 1] + 1, f[3 * i + 2] + 1);
   }
   write_file_atomically(path, fmt::to_string(out));
 }

@@ -12,172 +12,18 @@
 #include <optional>
 
 #include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
 #include "fskin/util/atomic_file.h"
+#include "io/npy_format.h"
 
-// The .npy format (https://numpy.org/doc/stable/reference/generated/numpy.lib.format.html):
-// magic "\x93NUMPY", version byte pair, header length (uint16 LE for 1.0, uint32 LE for
-// 2.0/3.0), then a Python dict literal such as
-//   {'descr': '<f4', 'fortran_order': False, 'shape': (2, 3), }
-// padded with spaces and a final '\n' so the data starts 64-byte aligned. No Debian
-// package reads .npy from C++ (cnpy is not packaged), so the format is decoded here;
-// the zip container is handled by libzip.
+// No Debian package reads .npy from C++ (cnpy is not packaged), so arrays are decoded
+// here (header grammar in npy_format.cpp); the zip container is handled by libzip.
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
               "fskin's .npy/.ply byte handling assumes a little-endian host");
 
 namespace fskin::io {
 namespace {
-
-constexpr char kMagic[] = "\x93NUMPY";
-constexpr size_t kMagicSize = 6;
-constexpr size_t kHeaderAlignment = 64;
-
-// What an .npy header says about the array.
-struct NpyHeader {
-  std::string descr;
-  bool fortran_order = false;
-  std::vector<int64_t> shape;
-  size_t data_offset = 0;
-};
-
-// A minimal reader for the Python dict literal of an .npy header: string keys, and
-// values that are strings, True/False, or tuples of non-negative integers. A structured
-// dtype (a list as 'descr') is captured verbatim so the error can show it.
-class HeaderParser {
- public:
-  HeaderParser(const std::string& text, const std::string& what) : text_(text), what_(what) {}
-
-  NpyHeader parse() {
-    NpyHeader header;
-    bool have_descr = false, have_order = false, have_shape = false;
-    expect('{');
-    while (true) {
-      skip_space();
-      if (peek() == '}') break;
-      const std::string key = string_literal();
-      expect(':');
-      skip_space();
-      if (key == "descr") {
-        header.descr = peek() == '[' ? raw_bracketed() : string_literal();
-        have_descr = true;
-      } else if (key == "fortran_order") {
-        header.fortran_order = boolean();
-        have_order = true;
-      } else if (key == "shape") {
-        header.shape = int_tuple();
-        have_shape = true;
-      } else {
-        bad(fmt::format("unexpected key '{}'", key));
-      }
-      skip_space();
-      if (peek() == ',') ++pos_;
-    }
-    if (!have_descr || !have_order || !have_shape) {
-      bad("missing 'descr', 'fortran_order' or 'shape'");
-    }
-    return header;
-  }
-
- private:
-  [[noreturn]] void bad(const std::string& why) const {
-    fail("{}: bad .npy header ({}): {}", what_, why, text_);
-  }
-  void skip_space() {
-    while (pos_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[pos_]))) ++pos_;
-  }
-  char peek() {
-    skip_space();
-    if (pos_ >= text_.size()) bad("unexpected end");
-    return text_[pos_];
-  }
-  void expect(char c) {
-    if (peek() != c) bad(fmt::format("expected '{}' at offset {}", c, pos_));
-    ++pos_;
-  }
-  std::string string_literal() {
-    const char quote = peek();
-    if (quote != '\'' && quote != '"') bad(fmt::format("expected a string at offset {}", pos_));
-    const size_t end = text_.find(quote, pos_ + 1);
-    if (end == std::string::npos) bad("unterminated string");
-    std::string value = text_.substr(pos_ + 1, end - pos_ - 1);
-    pos_ = end + 1;
-    return value;
-  }
-  std::string raw_bracketed() {
-    int depth = 0;
-    const size_t start = pos_;
-    for (; pos_ < text_.size(); ++pos_) {
-      if (text_[pos_] == '[') ++depth;
-      if (text_[pos_] == ']' && --depth == 0) return text_.substr(start, ++pos_ - start);
-    }
-    bad("unterminated list");
-  }
-  bool boolean() {
-    skip_space();
-    for (const auto& [word, value] : {std::pair{"True", true}, std::pair{"False", false}}) {
-      const size_t n = std::strlen(word);
-      if (text_.compare(pos_, n, word) == 0) {
-        pos_ += n;
-        return value;
-      }
-    }
-    bad("'fortran_order' is neither True nor False");
-  }
-  std::vector<int64_t> int_tuple() {
-    std::vector<int64_t> values;
-    expect('(');
-    while (peek() != ')') {
-      if (!std::isdigit(static_cast<unsigned char>(text_[pos_]))) bad("bad shape");
-      int64_t value = 0;
-      while (pos_ < text_.size() && std::isdigit(static_cast<unsigned char>(text_[pos_]))) {
-        if (value > (std::numeric_limits<int64_t>::max() - 9) / 10) bad("shape too large");
-        value = value * 10 + (text_[pos_++] - '0');
-      }
-      // Python 2 wrote long integers as e.g. "3L".
-      if (pos_ < text_.size() && text_[pos_] == 'L') ++pos_;
-      values.push_back(value);
-      if (peek() == ',') ++pos_;
-    }
-    ++pos_;
-    return values;
-  }
-
-  const std::string& text_;
-  const std::string& what_;
-  size_t pos_ = 0;
-};
-
-uint32_t read_le32(const std::string& bytes, size_t offset) {
-  uint32_t value = 0;
-  for (int i = 3; i >= 0; --i) value = (value << 8) | static_cast<unsigned char>(bytes[offset + i]);
-  return value;
-}
-
-NpyHeader parse_header(const std::string& bytes, const std::string& what) {
-  FSKIN_CHECK(bytes.size() >= kMagicSize + 4 && bytes.compare(0, kMagicSize, kMagic) == 0,
-              "{}: not an .npy array (missing \\x93NUMPY magic; {} bytes)", what, bytes.size());
-  const int major = static_cast<unsigned char>(bytes[6]);
-  size_t header_size = 0, header_start = 0;
-  if (major == 1) {
-    header_size = static_cast<unsigned char>(bytes[8]) |
-                  (static_cast<size_t>(static_cast<unsigned char>(bytes[9])) << 8);
-    header_start = 10;
-  } else if (major == 2 || major == 3) {
-    FSKIN_CHECK(bytes.size() >= 12, "{}: truncated .npy header", what);
-    header_size = read_le32(bytes, 8);
-    header_start = 12;
-  } else {
-    fail("{}: unsupported .npy format version {}.{}", what, major,
-         static_cast<unsigned char>(bytes[7]));
-  }
-  FSKIN_CHECK(header_start + header_size <= bytes.size(),
-              "{}: truncated .npy header ({} bytes, header says {})", what, bytes.size(),
-              header_start + header_size);
-  NpyHeader header =
-      HeaderParser(bytes.substr(header_start, header_size), what).parse();
-  header.data_offset = header_start + header_size;
-  return header;
-}
 
 // How the bytes of one element are stored and what they become in memory.
 struct Dtype {
@@ -197,9 +43,11 @@ std::optional<Dtype> parse_dtype(const std::string& descr) {
   } catch (const std::exception&) {
     return std::nullopt;
   }
+  if (size == 0 || size > (size_t{1} << 24)) return std::nullopt;
   const bool little = order == '<', none = order == '|';
-  if (code == 'U' && little && size > 0) return Dtype{Dtype::Kind::kUnicode, torch::kUInt8, size};
-  if (code == 'S' && none && size > 0) return Dtype{Dtype::Kind::kBytes, torch::kUInt8, size};
+  // '<U n': n UTF-32LE code units per string.
+  if (code == 'U' && little) return Dtype{Dtype::Kind::kUnicode, torch::kUInt8, 4 * size};
+  if (code == 'S' && none) return Dtype{Dtype::Kind::kBytes, torch::kUInt8, size};
   // One-byte types have no byte order: numpy writes '|', other writers sometimes '<'.
   if (size == 1 && (little || none)) {
     if (code == 'f') return std::nullopt;
@@ -227,7 +75,7 @@ std::string describe_unsupported(const std::string& descr) {
 
 // A decoded header plus its validated element count and data span.
 struct NpyArray {
-  NpyHeader header;
+  detail::NpyHeader header;
   Dtype dtype;
   int64_t count = 1;
   const char* data = nullptr;
@@ -235,7 +83,7 @@ struct NpyArray {
 
 NpyArray parse_npy(const std::string& bytes, const std::string& what) {
   NpyArray array;
-  array.header = parse_header(bytes, what);
+  array.header = detail::parse_npy_header(bytes, what);
   const auto dtype = parse_dtype(array.header.descr);
   if (!dtype) fail("{}: unsupported dtype {}", what, describe_unsupported(array.header.descr));
   array.dtype = *dtype;
@@ -249,7 +97,7 @@ NpyArray parse_npy(const std::string& bytes, const std::string& what) {
   const size_t available = bytes.size() - array.header.data_offset;
   FSKIN_CHECK(available == expected,
               "{}: data size mismatch: shape {} of '{}' needs {} bytes, file has {}{}", what,
-              fmt::join(array.header.shape, "x"), array.header.descr, expected, available,
+              shape_string(array.header.shape), array.header.descr, expected, available,
               available < expected ? " (truncated)" : "");
   array.data = bytes.data() + array.header.data_offset;
   return array;
@@ -300,32 +148,6 @@ std::vector<uint32_t> utf8_to_code_points(const std::string& text) {
     i += length;
   }
   return points;
-}
-
-std::string make_npy(const std::string& descr, at::IntArrayRef shape, const char* data,
-                     size_t data_size) {
-  std::string shape_text = "(";
-  for (size_t i = 0; i < shape.size(); ++i) {
-    shape_text += std::to_string(shape[i]) + (shape.size() == 1 ? "," : i + 1 < shape.size() ? ", " : "");
-  }
-  shape_text += ")";
-  // Byte-for-byte what numpy writes, so files compare equal to np.save output.
-  std::string dict =
-      fmt::format("{{'descr': '{}', 'fortran_order': False, 'shape': {}, }}", descr, shape_text);
-  const bool version1 = kMagicSize + 4 + dict.size() + 1 < 65536;
-  const size_t prefix = kMagicSize + (version1 ? 4 : 6);
-  const size_t padded = (prefix + dict.size() + 1 + kHeaderAlignment - 1) / kHeaderAlignment *
-                        kHeaderAlignment;
-  dict.append(padded - prefix - dict.size() - 1, ' ');
-  dict += '\n';
-  std::string out(kMagic, kMagicSize);
-  out += static_cast<char>(version1 ? 1 : 2);
-  out += '\0';
-  const size_t length = dict.size();
-  for (size_t i = 0; i < (version1 ? 2u : 4u); ++i) out += static_cast<char>((length >> (8 * i)) & 0xFF);
-  out += dict;
-  out.append(data, data_size);
-  return out;
 }
 
 zip_error_t error_from_code(int code) {
@@ -410,8 +232,9 @@ std::string encode_npy(const torch::Tensor& tensor) {
            "int32, int64, uint8, bool)",
            std::string(c10::toString(cpu.scalar_type())));
   }
-  return make_npy(descr, cpu.sizes(), static_cast<const char*>(cpu.data_ptr()),
-                  static_cast<size_t>(cpu.numel()) * cpu.element_size());
+  std::string out = detail::make_npy_header(descr, cpu.sizes().vec());
+  out.append(static_cast<const char*>(cpu.data_ptr()), cpu.nbytes());
+  return out;
 }
 
 std::string encode_npy_strings(const std::vector<std::string>& strings) {
@@ -429,8 +252,9 @@ std::string encode_npy_strings(const std::vector<std::string>& strings) {
       }
     }
   }
-  const std::vector<int64_t> shape{static_cast<int64_t>(strings.size())};
-  return make_npy("<U" + std::to_string(width), shape, data.data(), data.size());
+  return detail::make_npy_header("<U" + std::to_string(width),
+                                 {static_cast<int64_t>(strings.size())}) +
+         data;
 }
 
 torch::Tensor read_npy(const std::string& path) { return decode_npy(read_file(path), path); }
