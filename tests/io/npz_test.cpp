@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include <atomic>
+#include <cstdlib>
+#include <ctime>
 #include <filesystem>
 
 #include "fskin/core/error.h"
@@ -102,6 +105,22 @@ TEST(NpzWriter, SavingTwiceGivesIdenticalBytes) {
   }
 }
 
+TEST(NpzWriter, BytesDoNotDependOnTheTimeZone) {
+  const auto dir = temp_dir("npz_time_zone");
+  NpzWriter writer;
+  writer.add("a", torch::arange(10));
+  const char* old_tz = std::getenv("TZ");
+  const std::string saved = old_tz ? old_tz : "";
+  for (const auto& [zone, name] : {std::pair{"UTC", "utc.npz"}, {"Asia/Tokyo", "tokyo.npz"}}) {
+    ::setenv("TZ", zone, 1);
+    ::tzset();
+    writer.save((dir / name).string());
+  }
+  old_tz ? ::setenv("TZ", saved.c_str(), 1) : ::unsetenv("TZ");
+  ::tzset();
+  EXPECT_EQ(read_file((dir / "utc.npz").string()), read_file((dir / "tokyo.npz").string()));
+}
+
 TEST(NpzWriter, RejectsDuplicateEmptyAndUnsupported) {
   NpzWriter writer;
   writer.add("a", torch::ones(1));
@@ -198,6 +217,16 @@ TEST(Npy, StringAndNumericArraysAreNotInterchangeable) {
 TEST(NpzReader, MissingKeyListsAvailableKeys) {
   expect_error([] { NpzReader(fixture("numpy_savez.npz")).tensor("betas"); },
                {"numpy_savez.npz", "'betas'", "kintree_table"});
+}
+
+TEST(NpzReader, ConcurrentReadsOfOneArchive) {
+  const NpzReader reader(fixture("numpy_savez_compressed.npz"));
+  const torch::Tensor expected = reader.tensor("f8");
+  std::atomic<int> mismatches{0};
+  at::parallel_for(0, 64, 1, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) mismatches += !torch::equal(reader.tensor("f8"), expected);
+  });
+  EXPECT_EQ(mismatches.load(), 0);
 }
 
 TEST(NpzReader, DtypeErrorsNameFileAndKey) {
