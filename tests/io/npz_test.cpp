@@ -208,6 +208,13 @@ TEST(Npy, RejectsTruncatedOversizedAndMalformedData) {
   expect_error([&] { decode_npy(bad_shape, "x.npy"); }, {"x.npy", "bad .npy header"});
 }
 
+TEST(Npy, ReadsByteStringsOfPython2Files) {
+  const std::string data("pelvisspine\0", 12);  // '|S6': NUL-padded to 6 bytes
+  EXPECT_EQ(decode_npy_strings(
+                npy("{'descr': '|S6', 'fortran_order': False, 'shape': (2,), }", data), "s"),
+            (std::vector<std::string>{"pelvis", "spine"}));
+}
+
 TEST(Npy, StringAndNumericArraysAreNotInterchangeable) {
   expect_error([] { decode_npy(encode_npy_strings({"a"}), "s"); }, {"s", "string array"});
   expect_error([] { decode_npy_strings(encode_npy(torch::ones(2)), "n"); },
