@@ -4,7 +4,9 @@
 
 namespace fskin::cli {
 
+void register_animate(CLI::App& app);
 void register_character(CLI::App& app);
 void register_pose(CLI::App& app);
+void register_render(CLI::App& app);
 
 }  // namespace fskin::cli
