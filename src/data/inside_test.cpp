@@ -29,8 +29,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <functional>
-#include <thread>
 #include <vector>
 
 #include "fskin/core/error.h"
@@ -96,23 +94,6 @@ void count_crossing(const RTCFilterFunctionNArguments* args) {
   else if (dot < 0) --ctx->winding;   // entering a part
 }
 
-// Runs body(begin, end) over [0, n) on at::get_num_threads() threads.
-// at::parallel_for would be the natural choice, but with LibTorch's OpenMP
-// backend it is an inline template whose parallel body exists only in
-// translation units compiled with -fopenmp; fskin's are not, so it would run
-// serially here.
-void parallel_over(int64_t n, const std::function<void(int64_t, int64_t)>& body) {
-  constexpr int64_t kMinChunk = 4096;
-  const int64_t threads =
-      std::clamp<int64_t>(at::get_num_threads(), 1, std::max<int64_t>(1, n / kMinChunk));
-  const int64_t chunk = (n + threads - 1) / threads;
-  std::vector<std::thread> workers;
-  for (int64_t t = 1; t < threads; ++t)
-    workers.emplace_back(body, t * chunk, std::min(n, (t + 1) * chunk));
-  body(0, std::min(n, chunk));
-  for (auto& worker : workers) worker.join();
-}
-
 void check_device(RTCDevice device, const char* what) {
   const RTCError error = rtcGetDeviceError(device);
   FSKIN_CHECK(error == RTC_ERROR_NONE, "Embree failed in {} (error code {})", what,
@@ -174,7 +155,7 @@ torch::Tensor InsideTest::contains(const torch::Tensor& points) const {
   const float* normals = impl_->face_normals.data_ptr<float>();
   const RTCScene scene = impl_->scene;
   const auto& directions = impl_->directions;
-  parallel_over(p.size(0), [&](int64_t begin, int64_t end) {
+  at::parallel_for(0, p.size(0), 4096, [&](int64_t begin, int64_t end) {
     for (int64_t i = begin; i < end; ++i) {
       int inside_votes = 0;
       for (const auto& d : directions) {
