@@ -35,7 +35,7 @@ Deformer::SearchResult FastSnarfDeformer::search(const torch::Tensor& x_posed, c
 
 torch::Tensor FastSnarfDeformer::deform_prepared(int64_t b, const torch::Tensor& x) {
   // Same trilinear interpolation as the kernel (eq. 14), differentiable.
-  const auto t = sample_grid(transform_grid_[b], field_->box(), x).reshape({-1, 3, 4});
+  const auto t = sample_voxels(transform_grid_[b], field_->box(), x).reshape({-1, 3, 4});
   return torch::matmul(t.narrow(2, 0, 3), x.unsqueeze(-1)).squeeze(-1) + t.select(2, 3);
 }
 

@@ -10,7 +10,7 @@
 namespace fskin {
 
 std::shared_ptr<FrozenSkinningField> diffuse_weights_to_grid(const torch::Tensor& vertices,
-                                                             const torch::Tensor& weights, const GridBox& box,
+                                                             const torch::Tensor& weights, const VoxelBox& box,
                                                              const WeightDiffusionOptions& options) {
   expect_shape(vertices, {-1, 3}, "diffuse_weights_to_grid: vertices");
   expect_shape(weights, {vertices.size(0), -1}, "diffuse_weights_to_grid: weights");

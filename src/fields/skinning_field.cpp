@@ -11,7 +11,7 @@ torch::Tensor GridSkinningField::weights(const torch::Tensor& x_canonical) {
   const auto grid = grid_weights();
   auto out_shape = x_canonical.sizes().vec();
   out_shape.back() = grid.size(3);
-  return sample_grid(grid, box(), x_canonical.reshape({-1, 3})).reshape(out_shape);
+  return sample_voxels(grid, box(), x_canonical.reshape({-1, 3})).reshape(out_shape);
 }
 
 }  // namespace fskin

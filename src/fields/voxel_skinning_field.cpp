@@ -5,7 +5,7 @@
 
 namespace fskin {
 
-FrozenSkinningField::FrozenSkinningField(torch::Tensor grid, GridBox box) : box_(box) {
+FrozenSkinningField::FrozenSkinningField(torch::Tensor grid, VoxelBox box) : box_(box) {
   box_.validate("FrozenSkinningField");
   expect_shape(grid, {box_.shape.depth, box_.shape.height, box_.shape.width, -1}, "FrozenSkinningField: grid");
   FSKIN_CHECK(grid.size(3) >= 1, "FrozenSkinningField: grid has no bones");
@@ -14,7 +14,7 @@ FrozenSkinningField::FrozenSkinningField(torch::Tensor grid, GridBox box) : box_
   grid_ = register_buffer("grid", grid.detach().contiguous());
 }
 
-DistilledSkinningField::DistilledSkinningField(std::shared_ptr<SkinningField> source, GridBox box)
+DistilledSkinningField::DistilledSkinningField(std::shared_ptr<SkinningField> source, VoxelBox box)
     : source_(std::move(source)), box_(box) {
   FSKIN_CHECK(source_ != nullptr, "DistilledSkinningField: no source field");
   box_.validate("DistilledSkinningField");

@@ -23,8 +23,8 @@ inline torch::Tensor chain_weights(const torch::Tensor& x) {
   return torch::softmax(-torch::stack(d, -1) / 0.1, -1);
 }
 
-inline GridBox chain_box() {
-  GridBox box;
+inline VoxelBox chain_box() {
+  VoxelBox box;
   box.offset = {-0.5, 0.0, 0.0};
   box.scale = {1.0 / 1.7, 1.0 / 0.6, 1.0 / 0.6};
   box.shape = GridShape{16, 16, 64};

@@ -2,7 +2,7 @@
 #include <torch/torch.h>
 
 #include "fskin/core/error.h"
-#include "fskin/fields/grid_box.h"
+#include "fskin/fields/voxel_box.h"
 #include "fskin/fields/mlp_skinning_field.h"
 #include "fskin/fields/preset_skinning_field.h"
 #include "fskin/fields/voxel_skinning_field.h"
@@ -10,25 +10,25 @@
 namespace fskin {
 namespace {
 
-GridBox unit_box(GridShape shape) {
-  GridBox box;
+VoxelBox unit_box(GridShape shape) {
+  VoxelBox box;
   box.shape = shape;
   return box;  // [-1, 1]^3
 }
 
-TEST(GridBox, AroundMapsTheBoundingBoxInside) {
+TEST(VoxelBox, AroundMapsTheBoundingBoxInside) {
   const auto pts = torch::tensor({{0.0, 0.0, 0.0}, {1.0, 2.0, 0.2}, {-1.0, 1.0, -0.2}});  // flat in z
-  const auto box = GridBox::around(pts, GridShape{16, 64, 64}, 1.2, 4.0);
+  const auto box = VoxelBox::around(pts, GridShape{16, 64, 64}, 1.2, 4.0);
   const auto u = box.to_grid(pts);
   EXPECT_LT(u.abs().max().item<double>(), 1.0);
   EXPECT_NEAR(box.to_grid(torch::tensor({{0.0, 2.0, 0.0}}))[0][1].item<double>(), 1.0 / 1.2, 1e-6);
   EXPECT_NEAR(box.scale[2], 4 * box.scale[0], 1e-12);
   EXPECT_TRUE(box.contains(pts).all().item<bool>());
-  EXPECT_THROW(GridBox::around(torch::zeros({3, 3})), Error);
+  EXPECT_THROW(VoxelBox::around(torch::zeros({3, 3})), Error);
 }
 
-TEST(GridBox, VoxelCentresSpanTheBoxCorners) {
-  GridBox box = unit_box(GridShape{3, 4, 5});
+TEST(VoxelBox, VoxelCentresSpanTheBoxCorners) {
+  VoxelBox box = unit_box(GridShape{3, 4, 5});
   box.offset = {0.5, 0.0, 0.0};
   const auto c = box.voxel_centres(torch::kFloat64);
   EXPECT_EQ(c.sizes(), (std::vector<int64_t>{3, 4, 5, 3}));
@@ -38,15 +38,15 @@ TEST(GridBox, VoxelCentresSpanTheBoxCorners) {
 }
 
 TEST(SampleGrid, ReproducesVoxelsAndAffineFunctions) {
-  const GridBox box = unit_box(GridShape{4, 5, 6});
+  const VoxelBox box = unit_box(GridShape{4, 5, 6});
   const auto c = box.voxel_centres(torch::kFloat64);
   // An affine function of position is reproduced exactly by trilinear interpolation.
   const auto grid = torch::stack({c.select(-1, 0) * 2 + c.select(-1, 2), c.select(-1, 1) - 1}, -1);
   const auto p = torch::rand({50, 3}, torch::kFloat64) * 2 - 1;
-  const auto v = sample_grid(grid, box, p);
+  const auto v = sample_voxels(grid, box, p);
   EXPECT_TRUE(torch::allclose(v.select(1, 0), p.select(1, 0) * 2 + p.select(1, 2), 1e-10, 1e-10));
   EXPECT_TRUE(torch::allclose(v.select(1, 1), p.select(1, 1) - 1, 1e-10, 1e-10));
-  EXPECT_THROW(sample_grid(grid.narrow(0, 0, 2), box, p), Error);
+  EXPECT_THROW(sample_voxels(grid.narrow(0, 0, 2), box, p), Error);
 }
 
 TEST(SkinningFields, MlpWeightsAreADistribution) {

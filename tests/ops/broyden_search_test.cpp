@@ -11,8 +11,8 @@
 namespace fskin {
 namespace {
 
-GridBox unit_box() {
-  GridBox box;
+VoxelBox unit_box() {
+  VoxelBox box;
   box.shape = GridShape{4, 5, 6};
   return box;
 }

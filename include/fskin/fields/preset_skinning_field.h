@@ -17,7 +17,7 @@ struct WeightDiffusionOptions {
 
 // vertices [V, 3] in canonical space, weights [V, J] -> a frozen grid field over box.
 std::shared_ptr<FrozenSkinningField> diffuse_weights_to_grid(const torch::Tensor& vertices,
-                                                             const torch::Tensor& weights, const GridBox& box,
+                                                             const torch::Tensor& weights, const VoxelBox& box,
                                                              const WeightDiffusionOptions& options = {});
 
 }  // namespace fskin

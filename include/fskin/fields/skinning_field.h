@@ -4,7 +4,7 @@
 // weights, which the Fast-SNARF deformer blends into per-voxel transforms.
 #include <torch/torch.h>
 
-#include "fskin/fields/grid_box.h"
+#include "fskin/fields/voxel_box.h"
 
 namespace fskin {
 
@@ -17,7 +17,7 @@ class SkinningField : public torch::nn::Module {
 
 class GridSkinningField : public SkinningField {
  public:
-  virtual const GridBox& box() const = 0;
+  virtual const VoxelBox& box() const = 0;
   // Weights at every voxel centre, channels-last [D, H, W, J].
   virtual torch::Tensor grid_weights() = 0;
   // Trilinear interpolation of grid_weights() (Fast-SNARF eq. 13).

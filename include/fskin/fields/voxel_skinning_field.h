@@ -13,28 +13,28 @@ namespace fskin {
 class FrozenSkinningField : public GridSkinningField {
  public:
   // grid: [D, H, W, J] matching box.shape; rows >= 0, summing to 1.
-  FrozenSkinningField(torch::Tensor grid, GridBox box);
+  FrozenSkinningField(torch::Tensor grid, VoxelBox box);
   int64_t num_bones() const override { return grid_.size(3); }
-  const GridBox& box() const override { return box_; }
+  const VoxelBox& box() const override { return box_; }
   torch::Tensor grid_weights() override { return grid_; }
 
  private:
   torch::Tensor grid_;
-  GridBox box_;
+  VoxelBox box_;
 };
 
 class DistilledSkinningField : public GridSkinningField {
  public:
-  DistilledSkinningField(std::shared_ptr<SkinningField> source, GridBox box);
+  DistilledSkinningField(std::shared_ptr<SkinningField> source, VoxelBox box);
   int64_t num_bones() const override { return source_->num_bones(); }
-  const GridBox& box() const override { return box_; }
+  const VoxelBox& box() const override { return box_; }
   torch::Tensor grid_weights() override;
   std::shared_ptr<FrozenSkinningField> freeze();
   SkinningField& source() { return *source_; }
 
  private:
   std::shared_ptr<SkinningField> source_;
-  GridBox box_;
+  VoxelBox box_;
   torch::Tensor voxel_centres_;  // [D, H, W, 3]
 };
 

@@ -9,7 +9,7 @@
 // (ops/implicit_gradient.h) to the roots it finds.
 #include <torch/types.h>
 
-#include "fskin/fields/grid_box.h"
+#include "fskin/fields/voxel_box.h"
 
 namespace fskin {
 
@@ -37,7 +37,7 @@ struct BroydenSearchResult {
 // transform_grid: [B, D, H, W, 12] blended transforms (row-major 3x4) over `box`.
 // x_posed: [B, N, 3]. start_inverses: [B, S, 4, 4] (posed -> canonical rigid
 // inverses of the start bones). Float32 or float64; all on one device.
-BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const GridBox& box,
+BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const VoxelBox& box,
                                    const torch::Tensor& x_posed, const torch::Tensor& start_inverses,
                                    const BroydenSearchOptions& options);
 

@@ -139,39 +139,72 @@ struct SolveResult {
   int iterations;
 };
 
-// Broyden iterations from start x (in: start point, out: last iterate) towards
-// the root of T(x) x = x'. The initial inverse Jacobian is the inverse of the
-// blended 3x3 at the start (exact for rigid regions; Fast-SNARF uses the
-// transpose of the rotation, which breaks with scale). jinv receives the last
-// estimate, which Fast-SNARF's approximate gradient reuses (eq. 16-17).
-// `inside` refers to the last evaluated iterate.
+// Broyden iterations towards the roots of T(x) x = x' for `count` <= L starts
+// of one posed point at once (in: start points, out: last iterates). The
+// starts advance in lockstep so their grid fetches are independent work the
+// CPU overlaps (one start alone is a chain of dependent loads); CUDA threads
+// use L = 1. The initial inverse Jacobian is the inverse of the blended 3x3 at
+// the start (exact for rigid regions; Fast-SNARF uses the transpose of the
+// rotation, which breaks with scale). jinv receives the last estimate, which
+// Fast-SNARF's approximate gradient reuses (eq. 16-17).
+template <typename T, int L>
+FSKIN_HOST_DEVICE void solve_lanes(const GridView<T>& grid, const T x_posed[3], T (*x)[3], T (*jinv)[9],
+                                   SolveResult* result, int count, const SearchParams<T>& params) {
+  T transform[L][kChannels], g[L][3], g_new[L][3], dx[L][3];
+  bool inside[L], active[L];
+  for (int l = 0; l < count; ++l) {
+    inside[l] = residual(grid, x[l], x_posed, g[l], transform[l]);
+    if (!invert3x3(transform[l], 4, jinv[l])) {
+      for (int i = 0; i < 9; ++i) jinv[l][i] = (i % 4 == 0) ? T(1) : T(0);
+    }
+    active[l] = true;
+  }
+  for (int k = 0;; ++k) {
+    bool any = false;
+    for (int l = 0; l < count; ++l) {
+      if (!active[l]) continue;
+      const T* J = jinv[l];
+      const T norm_sq = g[l][0] * g[l][0] + g[l][1] * g[l][1] + g[l][2] * g[l][2];
+      for (int r = 0; r < 3; ++r) dx[l][r] = -(J[3 * r] * g[l][0] + J[3 * r + 1] * g[l][1] + J[3 * r + 2] * g[l][2]);
+      if (norm_sq < params.converge_sq) {
+        // One more quasi-Newton step costs no grid fetch and cuts the root
+        // error from |J^-1 g| (up to ~1e-4 with the reference threshold) to
+        // second order. `inside` refers to the last evaluated iterate.
+        for (int r = 0; r < 3; ++r) x[l][r] += dx[l][r];
+        result[l] = {inside[l], k};
+        active[l] = false;
+      } else if (!(norm_sq <= params.diverge_sq) || k == params.max_iterations) {
+        result[l] = {false, k};
+        active[l] = false;
+      } else {
+        for (int r = 0; r < 3; ++r) x[l][r] += dx[l][r];
+        any = true;
+      }
+    }
+    if (!any) return;
+    for (int l = 0; l < count; ++l) {
+      if (active[l]) inside[l] = residual(grid, x[l], x_posed, g_new[l], transform[l]);
+    }
+    for (int l = 0; l < count; ++l) {
+      if (!active[l]) continue;
+      T dg[3];
+      for (int a = 0; a < 3; ++a) {
+        dg[a] = g_new[l][a] - g[l][a];
+        g[l][a] = g_new[l][a];
+      }
+      broyden_update(jinv[l], dx[l], dg, params.denominator_eps);
+    }
+  }
+}
+
+// One start (see solve_lanes).
 template <typename T>
 FSKIN_HOST_DEVICE SolveResult solve(const GridView<T>& grid, const T x_posed[3], T x[3], T jinv[9],
                                     const SearchParams<T>& params) {
-  T transform[kChannels], g[3];
-  bool inside = residual(grid, x, x_posed, g, transform);
-  if (!invert3x3(transform, 4, jinv)) {
-    for (int i = 0; i < 9; ++i) jinv[i] = (i % 4 == 0) ? T(1) : T(0);
-  }
-  for (int k = 0;; ++k) {
-    const T norm_sq = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
-    if (norm_sq < params.converge_sq) {
-      // One more quasi-Newton step costs no grid fetch and cuts the root error
-      // from |J^-1 g| (up to ~1e-4 with the reference threshold) to second order.
-      for (int r = 0; r < 3; ++r) x[r] -= jinv[3 * r] * g[0] + jinv[3 * r + 1] * g[1] + jinv[3 * r + 2] * g[2];
-      return {inside, k};
-    }
-    if (!(norm_sq <= params.diverge_sq) || k == params.max_iterations) return {false, k};
-    T dx[3], g_new[3], dg[3];
-    for (int r = 0; r < 3; ++r) dx[r] = -(jinv[3 * r] * g[0] + jinv[3 * r + 1] * g[1] + jinv[3 * r + 2] * g[2]);
-    for (int a = 0; a < 3; ++a) x[a] += dx[a];
-    inside = residual(grid, x, x_posed, g_new, transform);
-    for (int a = 0; a < 3; ++a) {
-      dg[a] = g_new[a] - g[a];
-      g[a] = g_new[a];
-    }
-    broyden_update(jinv, dx, dg, params.denominator_eps);
-  }
+  SolveResult result;
+  solve_lanes<T, 1>(grid, x_posed, reinterpret_cast<T(*)[3]>(x), reinterpret_cast<T(*)[9]>(jinv), &result, 1,
+                    params);
+  return result;
 }
 
 // Squared residual of the rigid start x0 = B_s^-1 x' (infinite outside the box).

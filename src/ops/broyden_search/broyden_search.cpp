@@ -18,7 +18,7 @@ namespace fskin {
 namespace {
 
 template <typename T>
-broyden::SearchLaunch<T> make_launch(const torch::Tensor& grid, const GridBox& box, const torch::Tensor& x_posed,
+broyden::SearchLaunch<T> make_launch(const torch::Tensor& grid, const VoxelBox& box, const torch::Tensor& x_posed,
                                      const torch::Tensor& starts, int64_t slots, const BroydenSearchOptions& o,
                                      BroydenSearchResult& r) {
   broyden::SearchLaunch<T> a{};
@@ -50,7 +50,7 @@ broyden::SearchLaunch<T> make_launch(const torch::Tensor& grid, const GridBox& b
 
 }  // namespace
 
-BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const GridBox& box,
+BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const VoxelBox& box,
                                    const torch::Tensor& x_posed, const torch::Tensor& start_inverses,
                                    const BroydenSearchOptions& options) {
   box.validate("broyden_search");

@@ -51,22 +51,27 @@ FSKIN_HOST_DEVICE int start_of_rank(const T* r, int count, int rank) {
   return rank;  // unreachable for a strict total order
 }
 
-// Search of one (point, slot) pair starting from start bone `start`.
-template <typename T>
-FSKIN_HOST_DEVICE void search_pair(const SearchLaunch<T>& a, int64_t pn, int slot, int start) {
+// Search of `count` <= L consecutive slots of point `pn` (= b * N + n), slot
+// first_slot + l starting from start bone starts[l].
+template <typename T, int L>
+FSKIN_HOST_DEVICE void search_slots(const SearchLaunch<T>& a, int64_t pn, int first_slot, int count,
+                                    const int* starts) {
   const int64_t b = pn / a.points;
   const GridView<T> g = frame_grid(a, b);
   const T* xp = a.x_posed + 3 * pn;
-  T x[3], jinv[9];
-  apply_affine(a.start_inverses + (b * a.starts + start) * kChannels, xp, x);
-  const SolveResult res = solve(g, xp, x, jinv, a.params);
-  const int64_t o = pn * a.slots + slot;
-  for (int k = 0; k < 3; ++k) a.x_out[3 * o + k] = x[k];
-  a.valid_out[o] = res.valid;
-  a.iterations_out[o] = static_cast<uint8_t>(res.iterations);
-  a.start_index_out[o] = start;
-  if (a.inverse_jacobian_out) {
-    for (int k = 0; k < 9; ++k) a.inverse_jacobian_out[9 * o + k] = jinv[k];
+  T x[L][3], jinv[L][9];
+  SolveResult res[L];
+  for (int l = 0; l < count; ++l) apply_affine(a.start_inverses + (b * a.starts + starts[l]) * kChannels, xp, x[l]);
+  solve_lanes<T, L>(g, xp, x, jinv, res, count, a.params);
+  for (int l = 0; l < count; ++l) {
+    const int64_t o = pn * a.slots + first_slot + l;
+    for (int k = 0; k < 3; ++k) a.x_out[3 * o + k] = x[l][k];
+    a.valid_out[o] = res[l].valid;
+    a.iterations_out[o] = static_cast<uint8_t>(res[l].iterations);
+    a.start_index_out[o] = starts[l];
+    if (a.inverse_jacobian_out) {
+      for (int k = 0; k < 9; ++k) a.inverse_jacobian_out[9 * o + k] = jinv[l][k];
+    }
   }
 }
 

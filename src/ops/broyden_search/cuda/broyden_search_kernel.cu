@@ -23,7 +23,7 @@ __global__ void broyden_search_kernel(const SearchLaunch<T> a) {
     rank_inputs(a, pn, residuals);
     start = start_of_rank(residuals, a.starts, slot);
   }
-  search_pair(a, pn, slot, start);
+  search_slots<T, 1>(a, pn, slot, 1, &start);
 }
 
 }  // namespace

@@ -19,14 +19,14 @@ struct GridShape {
   int64_t voxels() const { return depth * height * width; }
 };
 
-struct GridBox {
+struct VoxelBox {
   std::array<double, 3> offset{0.0, 0.0, 0.0};  // (x, y, z), added before scaling
   std::array<double, 3> scale{1.0, 1.0, 1.0};   // (x, y, z)
   GridShape shape;
 
   // The reference layout: offset = -bbox centre, scale = 1 / (max_extent / 2 *
   // padding) on every axis, times z_factor along z. points: [N, 3].
-  static GridBox around(const torch::Tensor& points, GridShape shape = {}, double padding = 1.2,
+  static VoxelBox around(const torch::Tensor& points, GridShape shape = {}, double padding = 1.2,
                         double z_factor = 4.0);
 
   // Throws fskin::Error (prefixed with `what`) unless every size is >= 2 and
@@ -45,6 +45,6 @@ struct GridBox {
 // grid [D, H, W, C] at points [M, 3] -> [M, C], or of a batch of grids
 // [B, D, H, W, C] at points [B, M, 3] -> [B, M, C]. Differentiable w.r.t.
 // both the grid and the points.
-torch::Tensor sample_grid(const torch::Tensor& grid, const GridBox& box, const torch::Tensor& points);
+torch::Tensor sample_voxels(const torch::Tensor& grid, const VoxelBox& box, const torch::Tensor& points);
 
 }  // namespace fskin
