@@ -19,12 +19,15 @@ void write_file_atomically(const std::string& path,
   const fs::path target(path);
   if (target.has_parent_path()) fs::create_directories(target.parent_path());
   const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
-  {
+  try {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     FSKIN_CHECK(out.good(), "{}: cannot open for writing: {}", tmp, std::strerror(errno));
     write(out);
     out.flush();
     FSKIN_CHECK(out.good(), "{}: write failed: {}", tmp, std::strerror(errno));
+  } catch (...) {
+    std::remove(tmp.c_str());  // never leave a partial file behind
+    throw;
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     const std::string why = std::strerror(errno);

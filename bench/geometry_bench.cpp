@@ -1,0 +1,50 @@
+// Meshing: marching cubes on an analytic field, and generating the built-in character.
+#include <benchmark/benchmark.h>
+#include <torch/torch.h>
+
+#include <thread>
+
+#include "fskin/body/character.h"
+#include "fskin/geometry/iso_surface.h"
+
+namespace {
+
+// n^3 samples of a sphere's signed distance over [-1, 1]^3 (sampling not timed).
+void BM_IsoSurfaceSphere(benchmark::State& state) {
+  at::set_num_threads(static_cast<int>(std::thread::hardware_concurrency()));
+  const int64_t n = state.range(0);
+  const double h = 2.0 / static_cast<double>(n - 1);
+  const fskin::GridBox box{{-1, -1, -1}, {h, h, h}};
+  const auto grid =
+      fskin::sample_grid([](const torch::Tensor& p) { return p.norm(2, 1) - 0.8; }, box, {n, n, n});
+  int64_t faces = 0;
+  for (auto _ : state) {
+    const auto mesh = fskin::iso_surface(grid, box, fskin::IsoSurfaceOptions{0.0, false});
+    faces = mesh.num_faces();
+    benchmark::DoNotOptimize(mesh.faces.data_ptr<int64_t>());
+  }
+  state.counters["faces"] = static_cast<double>(faces);
+}
+BENCHMARK(BM_IsoSurfaceSphere)->Arg(64)->Arg(128)->Arg(256)->Unit(benchmark::kMillisecond);
+
+// The whole model: field, meshing, clean-up, regressor, weights, correctives.
+void BM_MakeCharacter(benchmark::State& state) {
+  at::set_num_threads(static_cast<int>(std::thread::hardware_concurrency()));
+  fskin::CharacterOptions options;
+  options.resolution = static_cast<int>(state.range(0));
+  options.clothed = state.range(1) != 0;
+  int64_t faces = 0;
+  for (auto _ : state) {
+    const auto data = fskin::make_character(options);
+    faces = data.faces.size(0);
+    benchmark::DoNotOptimize(data.v_template.data_ptr<float>());
+  }
+  state.counters["faces"] = static_cast<double>(faces);
+}
+BENCHMARK(BM_MakeCharacter)
+    ->Args({56, 0})
+    ->Args({110, 0})
+    ->Args({110, 1})
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace

@@ -1,0 +1,29 @@
+#include "fskin/core/tensor_checks.h"
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <limits>
+
+#include "test_util.h"
+
+namespace fskin {
+namespace {
+
+TEST(TensorChecks, ShapeMismatchNamesTensorAndShapes) {
+  expect_shape(torch::zeros({2, 5, 3}), {-1, -1, 3}, "x");
+  testing::expect_error([] { expect_shape(torch::zeros({2, 5, 4}), {-1, -1, 3}, "x_posed"); },
+                        {"x_posed", "[*, *, 3]", "[2, 5, 4]"});
+  testing::expect_error([] { expect_shape(torch::Tensor(), {3}, "bones"); }, {"bones", "undefined"});
+}
+
+TEST(TensorChecks, NonFiniteValuesAreReported) {
+  auto t = torch::zeros({4});
+  expect_finite(t, "t");
+  t[2] = std::numeric_limits<float>::infinity();
+  testing::expect_error([&] { expect_finite(t, "bones"); }, {"bones", "non-finite", "index 2"});
+  expect_finite(torch::zeros({3}, torch::kInt64), "ints are always finite");
+}
+
+}  // namespace
+}  // namespace fskin
