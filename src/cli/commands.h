@@ -4,6 +4,7 @@
 
 namespace fskin::cli {
 
+void register_bench(CLI::App& app);
 void register_character(CLI::App& app);
 void register_pose(CLI::App& app);
 
