@@ -244,16 +244,21 @@ FSKIN_HOST_DEVICE SolveResult solve(const GridView<T>& grid, const T x_posed[3],
   return result;
 }
 
-// Squared residual of the rigid start x0 = B_s^-1 x' (infinite outside the box).
-// The automatic start selection ranks bones by it: a bone whose rigid inverse
-// lands in its own region starts next to a root.
+// Score of start bone s for the automatic selection: minus its skinning
+// weight w_s at its own rigid start x0 = B_s^-1 x' (nearest voxel of a
+// [D, H, W, S] weight grid; +inf outside the box). A bone whose inverse lands
+// in the region it drives starts next to a root; one load instead of a
+// 96-value trilinear fetch per candidate.
 template <typename T>
-FSKIN_HOST_DEVICE T start_residual_sq(const GridView<T>& grid, const T x_posed[3], const T start_inverse[kChannels]) {
-  T x0[3], g[3], transform[kChannels];
+FSKIN_HOST_DEVICE T start_score(const GridView<T>& grid, const T* weights, int starts, int s, const T x_posed[3],
+                                const T start_inverse[kChannels]) {
+  T x0[3], frac[3];
+  int i0[3];
   apply_affine(start_inverse, x_posed, x0);
-  if (!residual(grid, x0, x_posed, g, transform)) return INFINITY;
-  const T n = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
-  return n == n ? n : T(INFINITY);
+  if (!locate(grid, x0, i0, frac)) return T(INFINITY);
+  for (int a = 0; a < 3; ++a) i0[a] += frac[a] >= T(0.5);
+  const int64_t voxel = (static_cast<int64_t>(i0[2]) * grid.size[1] + i0[1]) * grid.size[0] + i0[0];
+  return -weights[voxel * starts + s];
 }
 
 // Duplicate removal (Fast-SNARF sec. 4.1): a valid root closer than
