@@ -22,7 +22,7 @@ namespace {
 struct BenchOptions {
   int64_t points = 200000;
   int64_t snarf_points = 5000;
-  int snarf_fit_steps = 300;
+  int snarf_fit_steps = 100;
   std::string starts = "9";
   int64_t auto_count = 4;
   std::string pose = "both";
