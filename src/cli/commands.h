@@ -4,8 +4,10 @@
 
 namespace fskin::cli {
 
+void register_animate(CLI::App& app);
 void register_bench(CLI::App& app);
 void register_character(CLI::App& app);
 void register_pose(CLI::App& app);
+void register_render(CLI::App& app);
 
 }  // namespace fskin::cli

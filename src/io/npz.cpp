@@ -98,12 +98,13 @@ std::u32string utf8_to_utf32(const std::string& s) {
 
 torch::Tensor decode_npy(const std::string& bytes, const std::string& what) {
   const auto h = detail::parse_npy_header(bytes, what);
+  FSKIN_CHECK(h.descr.size() < 2 || h.descr.substr(1) != "O",
+              "{}: object arrays (pickled data, dtype '{}') are not supported", what, h.descr);
   FSKIN_CHECK(h.descr.size() >= 3, "{}: unsupported dtype '{}'", what, h.descr);
   const char order = h.descr[0];
   const std::string code = h.descr.substr(1);
   FSKIN_CHECK(order != '>', "{}: big-endian dtype '{}' is not supported; save it little-endian",
               what, h.descr);
-  FSKIN_CHECK(code != "O", "{}: object arrays (pickled data) are not supported", what);
   if (code == "u4") {
     check_payload(h, bytes, 4, what);
     return from_buffer(bytes, h, torch::kInt32).to(torch::kInt64).bitwise_and(static_cast<int64_t>(0xffffffff));

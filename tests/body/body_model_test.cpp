@@ -50,13 +50,13 @@ TEST(BodyModel, PoseCorrectivesAndShapeBlendShapesApply) {
   // Vertex 3 moves along +z by the (0,0) entry of (R_1 - I): cos(theta) - 1.
   d.posedirs[3][2][0] = 1.0f;
   d.shapedirs = torch::zeros({4, 3, 1});
-  d.shapedirs[2][1][0] = 1.0f;
+  d.shapedirs[0][1][0] = 1.0f;  // vertex 0 (on the unrotated root) moves along +y
   const BodyModel model(d, "tiny");
   auto pose = torch::zeros({1, 2, 3});
   pose[0][1][2] = M_PI / 3;  // cos = 0.5 -> feature -0.5
   const auto out = model.pose(pose, torch::tensor({{0.25f}}));
   EXPECT_NEAR(out.vertices[0][3][2].item<float>(), 1.0f - 0.5f, 1e-5);
-  EXPECT_NEAR(out.vertices[0][2][1].item<float>(), 1.25f, 1e-5);
+  EXPECT_NEAR(out.vertices[0][0][1].item<float>(), 0.25f, 1e-5);
 }
 
 TEST(BodyModel, PoseFeaturesAreRotationMinusIdentity) {

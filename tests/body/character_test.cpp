@@ -2,17 +2,17 @@
 
 #include <ATen/Parallel.h>
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <torch/torch.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
 
-#include "fskin/core/error.h"
 #include "fskin/data/pose_set.h"
 #include "fskin/geometry/mesh_topology.h"
+#include "test_util.h"
 
 namespace fskin {
 namespace {
@@ -219,9 +219,7 @@ TEST(Character, ShapeDirectionsChangeHeightAndGirth) {
 }
 
 TEST(Character, CommandLineWritesAModelThatLoadsBackIdentically) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("fskin_character_test_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const auto dir = testing::temp_dir("character_cli");
   const std::string model = (dir / "model.npz").string(), poses = (dir / "poses.npz").string(),
                     mesh = (dir / "template.ply").string();
   const std::string command =
@@ -250,15 +248,15 @@ TEST(Character, CommandLineWritesAModelThatLoadsBackIdentically) {
 }
 
 TEST(Character, RejectsBadOptions) {
-  CharacterOptions options;
-  options.resolution = 4;
-  EXPECT_THROW(make_character(options), Error);
-  options = CharacterOptions{};
-  options.height = -1;
-  EXPECT_THROW(make_character(options), Error);
-  options = CharacterOptions{};
-  options.girth = 3;
-  EXPECT_THROW(make_character(options), Error);
+  const auto expect_rejected = [](void (*change)(CharacterOptions&), const std::string& option) {
+    CharacterOptions options;
+    change(options);
+    testing::expect_error([&] { make_character(options); }, {"character", option});
+  };
+  expect_rejected([](CharacterOptions& o) { o.resolution = 4; }, "--resolution");
+  expect_rejected([](CharacterOptions& o) { o.height = -1; }, "--height");
+  expect_rejected([](CharacterOptions& o) { o.girth = 3; }, "--girth");
+  expect_rejected([](CharacterOptions& o) { o.variation = 0.5; }, "--variation");
 }
 
 }  // namespace

@@ -5,8 +5,8 @@
 
 #include <cmath>
 
-#include "fskin/core/error.h"
 #include "fskin/geometry/mesh_topology.h"
+#include "test_util.h"
 
 namespace fskin {
 namespace {
@@ -119,14 +119,30 @@ TEST(IsoSurface, EmptyAndFullFieldsGiveNoFaces) {
 }
 
 TEST(IsoSurface, RejectsBadInput) {
-  EXPECT_THROW(iso_surface(torch::zeros({3, 3}), GridBox{}), Error);
-  EXPECT_THROW(iso_surface(torch::zeros({1, 3, 3}), GridBox{}), Error);
+  testing::expect_error(
+      [] {
+        iso_surface(torch::zeros({3, 3}), GridBox{});
+      },
+      {"iso_surface: values", "[3, 3]"});
+  testing::expect_error(
+      [] {
+        iso_surface(torch::zeros({1, 3, 3}), GridBox{});
+      },
+      {"iso_surface", "at least 2x2x2"});
   auto nan = torch::zeros({3, 3, 3});
   nan[1][1][1] = NAN;
-  EXPECT_THROW(iso_surface(nan, GridBox{}), Error);
-  EXPECT_THROW(iso_surface(torch::zeros({3, 3, 3}), GridBox{{0, 0, 0}, {1, 0, 1}}), Error);
+  testing::expect_error([&] { iso_surface(nan, GridBox{}); }, {"iso_surface: values"});
+  testing::expect_error(
+      [] {
+        iso_surface(torch::zeros({3, 3, 3}), GridBox{{0, 0, 0}, {1, 0, 1}});
+      },
+      {"iso_surface", "voxel size"});
   const auto wrong_count = [](const torch::Tensor& p) { return torch::zeros({p.size(0) + 1}); };
-  EXPECT_THROW(sample_grid(wrong_count, GridBox{}, {2, 2, 2}), Error);
+  testing::expect_error(
+      [&] {
+        sample_grid(wrong_count, GridBox{}, {2, 2, 2});
+      },
+      {"sample_grid", "9 values for 8 points"});
 }
 
 TEST(SampleGrid, MatchesGridLayoutAcrossBatches) {

@@ -115,7 +115,7 @@ TEST(Npy, FortranOrderIsTransposedIntoCOrder) {
       npy("{'descr': '<f8', 'fortran_order': True, 'shape': (2, 3), }",
           std::string(reinterpret_cast<const char*>(mem), sizeof(mem))),
       "fortran");
-  EXPECT_TRUE(torch::equal(t, torch::tensor({1.0, 2, 3, 4, 5, 6}, torch::kFloat64).reshape({2, 3})));
+  EXPECT_TRUE(torch::equal(t, torch::tensor({1.0, 2.0, 3.0, 4.0, 5.0, 6.0}, torch::kFloat64).reshape({2, 3})));
 }
 
 TEST(Npy, Uint32IsWidenedToInt64) {
