@@ -1,0 +1,44 @@
+#pragma once
+// The fused Fast-SNARF correspondence search (Fast-SNARF sec. 4.1, Alg. 1
+// variant 2): for every posed point x' and start bone s, start at the rigid
+// inverse x0 = B_s^-1 x' and run Broyden's method on T(x) x = x', with T
+// trilinearly interpolated from a grid of blended transforms (eq. 13-15). All
+// iterations of one (point, start) pair run in registers. Dispatches on the
+// device of its inputs: CPU (at::parallel_for) or CUDA (when built with it).
+// Not differentiable by itself: the deformers attach the implicit gradient
+// (ops/implicit_gradient.h) to the roots it finds.
+#include <torch/types.h>
+
+#include "fskin/fields/voxel_box.h"
+
+namespace fskin {
+
+struct BroydenSearchOptions {
+  int max_iterations = 10;
+  double converge_sq = 1e-8;  // squared residual norm, (1e-4)^2
+  double diverge_sq = 0.25;   // squared residual norm, (0.5)^2
+  double denominator_eps = 0.0;
+  // Per point, keep only the `num_starts` starts with the smallest rigid-start
+  // residual |T(x0) x0 - x'| (automatic start selection); -1 keeps all S.
+  int64_t num_starts = -1;
+  // Also return Broyden's last inverse Jacobian per candidate (for the
+  // approximate gradient, Fast-SNARF eq. 16-17).
+  bool return_inverse_jacobian = false;
+};
+
+struct BroydenSearchResult {
+  torch::Tensor x_canonical;       // [B, N, I, 3], last iterate (garbage where invalid)
+  torch::Tensor valid;             // [B, N, I] bool: converged and inside the box
+  torch::Tensor iterations;        // [B, N, I] uint8: Broyden steps taken
+  torch::Tensor start_index;       // [B, N, I] int64: which of the S starts each slot used
+  torch::Tensor inverse_jacobian;  // [B, N, I, 3, 3] or undefined
+};
+
+// transform_grid: [B, D, H, W, 12] blended transforms (row-major 3x4) over `box`.
+// x_posed: [B, N, 3]. start_inverses: [B, S, 4, 4] (posed -> canonical rigid
+// inverses of the start bones). Float32 or float64; all on one device.
+BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const VoxelBox& box,
+                                   const torch::Tensor& x_posed, const torch::Tensor& start_inverses,
+                                   const BroydenSearchOptions& options);
+
+}  // namespace fskin

@@ -1,0 +1,181 @@
+#include "fskin/deformers/deformer.h"
+
+#include <torch/cuda.h>
+
+#include <chrono>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+#include "fskin/ops/filter_duplicate_roots.h"
+#include "fskin/ops/implicit_gradient.h"
+#include "fskin/skeleton/lbs.h"
+
+namespace fskin {
+
+namespace {
+
+// Wall time of a stage; waits for queued GPU work so the split is honest.
+class StageTimer {
+ public:
+  explicit StageTimer(bool cuda) : cuda_(cuda) { start_ = std::chrono::steady_clock::now(); }
+  double seconds() {
+    if (cuda_) torch::cuda::synchronize();
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  bool cuda_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+// Undoes prepare() however forward() leaves.
+struct PreparedPose {
+  std::function<void()> release;
+  ~PreparedPose() { release(); }
+};
+
+}  // namespace
+
+DeformerOptions DeformerOptions::snarf() {
+  DeformerOptions o;
+  o.max_iterations = 50;
+  o.converge_sq = 1e-10;  // |r| < 1e-5
+  o.diverge_sq = 1.0;     // |r| > 1
+  o.gradient = GradientMode::Exact;
+  o.remove_duplicates = false;
+  o.chunk_points = 1 << 14;  // the MLP keeps activations per (point, start)
+  return o;
+}
+
+DeformerOptions DeformerOptions::fast_snarf() { return DeformerOptions{}; }
+
+Deformer::Deformer(DeformerOptions options) : options_(std::move(options)) {
+  FSKIN_CHECK(options_.chunk_points >= 1, "Deformer: chunk_points must be >= 1");
+  FSKIN_CHECK(options_.max_iterations >= 0 && options_.max_iterations <= 255,
+              "Deformer: max_iterations = {} must be in 0..255", options_.max_iterations);
+}
+
+DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tensor& bones) {
+  expect_shape(x_posed, {-1, -1, 3}, "Deformer::forward: x_posed");
+  expect_shape(bones, {x_posed.size(0), field().num_bones(), 4, 4}, "Deformer::forward: bones");
+  expect_floating(x_posed, "Deformer::forward: x_posed");
+  expect_floating(bones, "Deformer::forward: bones");
+  expect_finite(x_posed, "Deformer::forward: x_posed");
+  expect_finite(bones, "Deformer::forward: bones");
+  FSKIN_CHECK(bones.device() == x_posed.device(), "Deformer::forward: x_posed and bones on different devices");
+  const int64_t B = x_posed.size(0), N = x_posed.size(1), J = bones.size(1);
+  const auto bones_x = bones.to(x_posed.dtype());
+  // Throws on singular bones; the rigid inverses seed the search (SNARF eq. 7).
+  const auto candidates = options_.start_bones.candidates(J);
+  const auto start_inverses = invert_transforms(bones_x.detach())
+                                  .index_select(1, torch::tensor(candidates, torch::kInt64).to(bones.device()));
+
+  bool wants_grad = torch::GradMode::is_enabled() && (x_posed.requires_grad() || bones.requires_grad());
+  for (const auto& p : field().parameters()) wants_grad = wants_grad || (torch::GradMode::is_enabled() && p.requires_grad());
+  const bool cuda = x_posed.is_cuda();
+
+  DeformerOutput out;
+  DeformerStats& st = out.stats;
+  StageTimer precompute(cuda);
+  prepare(bones_x);
+  PreparedPose prepared{[this] { release(); }};
+  st.precompute_seconds = precompute.seconds();
+
+  std::vector<torch::Tensor> xs, valids;
+  double iteration_sum = 0;
+  for (int64_t begin = 0; begin < N; begin += options_.chunk_points) {
+    const auto chunk = x_posed.narrow(1, begin, std::min(options_.chunk_points, N - begin));
+    StageTimer search_timer(cuda);
+    SearchResult found = [&] {
+      torch::NoGradGuard no_grad;
+      return search(chunk.detach(), start_inverses,
+                    wants_grad && options_.gradient == GradientMode::Approximate);
+    }();
+    st.search_seconds += search_timer.seconds();
+    iteration_sum += found.iterations.sum().item<double>();
+
+    StageTimer filter_timer(cuda);
+    if (options_.remove_duplicates) found.valid = filter_duplicate_roots(found.x, found.valid, options_.duplicate_distance);
+    st.filter_seconds += filter_timer.seconds();
+
+    StageTimer gradient_timer(cuda);
+    if (wants_grad) {
+      xs.push_back(attach_gradients(found, chunk));
+    } else {
+      xs.push_back(found.x.masked_fill(found.valid.logical_not().unsqueeze(-1), 0));
+    }
+    st.gradient_seconds += gradient_timer.seconds();
+    valids.push_back(found.valid);
+  }
+  out.x_canonical = xs.size() == 1 ? xs[0] : torch::cat(xs, 1);
+  out.valid = valids.size() == 1 ? valids[0] : torch::cat(valids, 1);
+  if (N == 0) {
+    const int64_t I = options_.start_bones.slots(J);
+    out.x_canonical = torch::zeros({B, 0, I, 3}, x_posed.options());
+    out.valid = torch::zeros({B, 0, I}, x_posed.options().dtype(torch::kBool));
+  }
+  st.points = B * N;
+  st.candidates = out.valid.numel();
+  if (st.points > 0) {
+    st.mean_valid = out.valid.sum().item<double>() / static_cast<double>(st.points);
+    st.mean_iterations = iteration_sum / static_cast<double>(st.candidates);
+  }
+  return out;
+}
+
+torch::Tensor Deformer::attach_gradients(const SearchResult& found, const torch::Tensor& x_posed) {
+  // Roots only where valid: no [N, I, 3, 3] for candidates that failed.
+  const auto index = found.valid.nonzero();  // [M, 3] (b, n, i), sorted by b
+  const auto roots = found.x.index({found.valid});
+  const auto n_index = index.select(1, 1);
+  const auto b_index = index.select(1, 0);
+  const int64_t B = found.x.size(0);
+  std::vector<torch::Tensor> residuals, jinvs;
+  for (int64_t b = 0; b < B; ++b) {
+    const auto rows = (b_index == b).nonzero().squeeze(1);
+    if (rows.numel() == 0) continue;
+    const auto x_b = roots.index_select(0, rows);
+    // r = d(x*) - x' with the graph of the field, the bones and x' (SNARF eq. 12).
+    residuals.push_back(deform_prepared(b, x_b) - x_posed[b].index_select(0, n_index.index_select(0, rows)));
+    if (options_.gradient == GradientMode::Exact) {
+      const auto jac = spatial_jacobian(b, x_b);
+      const auto [inv, info] = torch::linalg_inv_ex(jac);
+      // A singular Jacobian has no implicit gradient: give those roots none.
+      jinvs.push_back(inv.masked_fill((info != 0).view({-1, 1, 1}), 0));
+    }
+  }
+  auto x_full = torch::zeros_like(found.x);
+  if (residuals.empty()) return x_full;
+  const auto residual = torch::cat(residuals, 0);
+  const auto jinv = options_.gradient == GradientMode::Exact ? torch::cat(jinvs, 0)
+                                                             : found.inverse_jacobian.index({found.valid});
+  const auto x_valid = attach_implicit_gradient(roots, jinv, residual);
+  return x_full.index_put({found.valid}, x_valid);
+}
+
+torch::Tensor Deformer::spatial_jacobian(int64_t b, const torch::Tensor& x) {
+  torch::AutoGradMode enable(true);
+  const auto xr = x.detach().requires_grad_(true);
+  const auto y = deform_prepared(b, xr);
+  std::vector<torch::Tensor> rows;
+  for (int64_t k = 0; k < 3; ++k) {
+    rows.push_back(torch::autograd::grad({y.select(1, k).sum()}, {xr}, {}, /*retain_graph=*/k < 2)[0]);
+  }
+  return torch::stack(rows, 1).detach();  // [M, 3 (output), 3 (input)]
+}
+
+torch::Tensor Deformer::deform(const torch::Tensor& x_canonical, const torch::Tensor& bones) {
+  expect_shape(x_canonical, {-1, -1, 3}, "Deformer::deform: x_canonical");
+  expect_shape(bones, {x_canonical.size(0), field().num_bones(), 4, 4}, "Deformer::deform: bones");
+  expect_finite(bones, "Deformer::deform: bones");
+  std::vector<torch::Tensor> out;
+  const int64_t N = x_canonical.size(1);
+  for (int64_t begin = 0; begin < N || begin == 0; begin += options_.chunk_points) {
+    const auto chunk = x_canonical.narrow(1, begin, std::min(options_.chunk_points, N - begin));
+    out.push_back(linear_blend_skinning(chunk, field().weights(chunk).to(chunk.dtype()), bones.to(chunk.dtype())));
+    if (N == 0) break;
+  }
+  return out.size() == 1 ? out[0] : torch::cat(out, 1);
+}
+
+}  // namespace fskin

@@ -1,0 +1,87 @@
+#include "fskin/fields/voxel_box.h"
+
+#include <torch/torch.h>
+
+#include <cmath>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+
+namespace fskin {
+
+VoxelBox VoxelBox::around(const torch::Tensor& points, GridShape shape, double padding,
+                        double z_factor) {
+  expect_shape(points, {-1, 3}, "VoxelBox::around: points");
+  FSKIN_CHECK(points.size(0) > 0, "VoxelBox::around: points is empty");
+  expect_finite(points, "VoxelBox::around: points");
+  FSKIN_CHECK(padding > 0 && z_factor > 0, "VoxelBox::around: padding ({}) and z_factor ({}) must be > 0",
+              padding, z_factor);
+  const auto p = points.detach().to(torch::kCPU, torch::kFloat64);
+  const auto lo = std::get<0>(p.min(0)), hi = std::get<0>(p.max(0));
+  const auto centre = (lo + hi) / 2;
+  const double extent = (hi - lo).max().item<double>();
+  FSKIN_CHECK(extent > 0, "VoxelBox::around: points span no volume");
+  const double s = 1.0 / (extent / 2 * padding);
+  VoxelBox box;
+  for (int a = 0; a < 3; ++a) {
+    box.offset[a] = -centre[a].item<double>();
+    box.scale[a] = s;
+  }
+  box.scale[2] *= z_factor;
+  box.shape = shape;
+  box.validate("VoxelBox::around");
+  return box;
+}
+
+void VoxelBox::validate(const std::string& what) const {
+  FSKIN_CHECK(shape.depth >= 2 && shape.height >= 2 && shape.width >= 2,
+              "{}: grid shape (D, H, W) = ({}, {}, {}) must be >= 2 along every axis", what,
+              shape.depth, shape.height, shape.width);
+  for (int a = 0; a < 3; ++a) {
+    FSKIN_CHECK(std::isfinite(offset[a]) && std::isfinite(scale[a]) && scale[a] > 0,
+                "{}: grid box offset/scale along axis {} must be finite with scale > 0 (got {}, {})",
+                what, a, offset[a], scale[a]);
+  }
+}
+
+torch::Tensor VoxelBox::to_grid(const torch::Tensor& points) const {
+  const auto o = torch::tensor({offset[0], offset[1], offset[2]}, points.options());
+  const auto s = torch::tensor({scale[0], scale[1], scale[2]}, points.options());
+  return (points + o) * s;
+}
+
+torch::Tensor VoxelBox::voxel_centres(torch::Dtype dtype) const {
+  auto axis = [&](int a, int64_t n) {
+    return torch::linspace(-1.0, 1.0, n, torch::kFloat64) / scale[a] - offset[a];
+  };
+  const auto grids = torch::meshgrid({axis(2, shape.depth), axis(1, shape.height), axis(0, shape.width)},
+                                     "ij");
+  // meshgrid gives (z, y, x); points are (x, y, z).
+  return torch::stack({grids[2], grids[1], grids[0]}, -1).to(dtype);
+}
+
+torch::Tensor VoxelBox::contains(const torch::Tensor& points) const {
+  const auto u = to_grid(points).abs();
+  return (u <= 1.0 + 1e-6).all(-1);
+}
+
+torch::Tensor sample_voxels(const torch::Tensor& grid, const VoxelBox& box, const torch::Tensor& points) {
+  FSKIN_CHECK(grid.dim() == 4 || grid.dim() == 5, "sample_voxels: grid must be [D, H, W, C] or [B, D, H, W, C], got {}",
+              shape_string(grid.sizes()));
+  const bool batched = grid.dim() == 5;
+  const auto g = batched ? grid : grid.unsqueeze(0);
+  const auto p = batched ? points : points.unsqueeze(0);
+  expect_shape(p, {g.size(0), -1, 3}, "sample_voxels: points");
+  FSKIN_CHECK(g.size(1) == box.shape.depth && g.size(2) == box.shape.height && g.size(3) == box.shape.width,
+              "sample_voxels: grid {} does not match the box shape (D, H, W) = ({}, {}, {})",
+              shape_string(grid.sizes()), box.shape.depth, box.shape.height, box.shape.width);
+  const int64_t b = g.size(0), m = p.size(1), c = g.size(4);
+  const auto input = g.permute({0, 4, 1, 2, 3});  // [B, C, D, H, W]
+  const auto coords = box.to_grid(p.to(g.dtype())).reshape({b, 1, 1, m, 3});
+  // interpolation 0 = bilinear (trilinear in 3D), padding 1 = border.
+  const auto out = at::grid_sampler(input, coords, 0, 1, /*align_corners=*/true);  // [B, C, 1, 1, M]
+  const auto flat = out.reshape({b, c, m}).transpose(1, 2);
+  return batched ? flat : flat.squeeze(0);
+}
+
+}  // namespace fskin

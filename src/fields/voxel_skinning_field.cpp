@@ -1,0 +1,36 @@
+#include "fskin/fields/voxel_skinning_field.h"
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+
+namespace fskin {
+
+FrozenSkinningField::FrozenSkinningField(torch::Tensor grid, VoxelBox box) : box_(box) {
+  box_.validate("FrozenSkinningField");
+  expect_shape(grid, {box_.shape.depth, box_.shape.height, box_.shape.width, -1}, "FrozenSkinningField: grid");
+  FSKIN_CHECK(grid.size(3) >= 1, "FrozenSkinningField: grid has no bones");
+  expect_floating(grid, "FrozenSkinningField: grid");
+  expect_finite(grid, "FrozenSkinningField: grid");
+  grid_ = register_buffer("grid", grid.detach().contiguous());
+}
+
+DistilledSkinningField::DistilledSkinningField(std::shared_ptr<SkinningField> source, VoxelBox box)
+    : source_(std::move(source)), box_(box) {
+  FSKIN_CHECK(source_ != nullptr, "DistilledSkinningField: no source field");
+  box_.validate("DistilledSkinningField");
+  register_module("source", source_);
+  voxel_centres_ = register_buffer("voxel_centres", box_.voxel_centres(torch::kFloat32));
+}
+
+torch::Tensor DistilledSkinningField::grid_weights() {
+  const auto params = source_->parameters();
+  const auto dtype = params.empty() ? voxel_centres_.scalar_type() : params[0].scalar_type();
+  return source_->weights(voxel_centres_.to(dtype));
+}
+
+std::shared_ptr<FrozenSkinningField> DistilledSkinningField::freeze() {
+  torch::NoGradGuard no_grad;
+  return std::make_shared<FrozenSkinningField>(grid_weights(), box_);
+}
+
+}  // namespace fskin

@@ -1,0 +1,112 @@
+// broyden_search: validates the inputs, fills the raw launch arguments and
+// dispatches on device and dtype.
+#include "fskin/ops/broyden_search.h"
+
+#include <torch/torch.h>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+#include "ops/broyden_search/broyden_search_kernel.h"
+
+#ifdef FSKIN_WITH_CUDA
+#include <c10/cuda/CUDAGuard.h>
+#include <c10/cuda/CUDAStream.h>
+#endif
+
+namespace fskin {
+
+namespace {
+
+template <typename T>
+broyden::SearchLaunch<T> make_launch(const torch::Tensor& grid, const VoxelBox& box, const torch::Tensor& x_posed,
+                                     const torch::Tensor& starts, int64_t slots, const BroydenSearchOptions& o,
+                                     BroydenSearchResult& r) {
+  broyden::SearchLaunch<T> a{};
+  const int64_t sizes[3] = {box.shape.width, box.shape.height, box.shape.depth};
+  for (int k = 0; k < 3; ++k) {
+    // Voxel coordinate f = (u + 1) / 2 * (size - 1) with u = (x + offset) * scale.
+    const double half = static_cast<double>(sizes[k] - 1) / 2.0;
+    a.grid.size[k] = static_cast<int>(sizes[k]);
+    a.grid.scale[k] = static_cast<T>(box.scale[k] * half);
+    a.grid.shift[k] = static_cast<T>((box.offset[k] * box.scale[k] + 1.0) * half);
+  }
+  a.grid.data = grid.data_ptr<T>();
+  a.grid_frame_stride = grid[0].numel();
+  a.x_posed = x_posed.data_ptr<T>();
+  a.start_inverses = starts.data_ptr<T>();
+  a.batch = x_posed.size(0);
+  a.points = x_posed.size(1);
+  a.starts = static_cast<int>(starts.size(1));
+  a.slots = static_cast<int>(slots);
+  a.params = {o.max_iterations, static_cast<T>(o.converge_sq), static_cast<T>(o.diverge_sq),
+              static_cast<T>(o.denominator_eps)};
+  a.x_out = r.x_canonical.data_ptr<T>();
+  a.valid_out = r.valid.data_ptr<bool>();
+  a.iterations_out = r.iterations.data_ptr<uint8_t>();
+  a.start_index_out = r.start_index.data_ptr<int64_t>();
+  a.inverse_jacobian_out = r.inverse_jacobian.defined() ? r.inverse_jacobian.data_ptr<T>() : nullptr;
+  return a;
+}
+
+}  // namespace
+
+BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const VoxelBox& box,
+                                   const torch::Tensor& x_posed, const torch::Tensor& start_inverses,
+                                   const BroydenSearchOptions& options) {
+  box.validate("broyden_search");
+  expect_shape(x_posed, {-1, -1, 3}, "broyden_search: x_posed");
+  const int64_t B = x_posed.size(0), N = x_posed.size(1);
+  expect_shape(transform_grid, {B, box.shape.depth, box.shape.height, box.shape.width, broyden::kChannels},
+               "broyden_search: transform_grid");
+  expect_shape(start_inverses, {B, -1, 4, 4}, "broyden_search: start_inverses");
+  const int64_t S = start_inverses.size(1);
+  FSKIN_CHECK(S >= 1 && S <= broyden::kMaxStarts, "broyden_search: {} start bones, expected 1..{}", S,
+              broyden::kMaxStarts);
+  const int64_t I = options.num_starts < 0 ? S : options.num_starts;
+  FSKIN_CHECK(I >= 1 && I <= S, "broyden_search: num_starts = {} must be in 1..{} (the start bones given)",
+              options.num_starts, S);
+  FSKIN_CHECK(options.max_iterations >= 0 && options.max_iterations <= 255,
+              "broyden_search: max_iterations = {} must be in 0..255", options.max_iterations);
+  FSKIN_CHECK(options.converge_sq > 0 && options.diverge_sq > options.converge_sq,
+              "broyden_search: thresholds must satisfy 0 < converge_sq ({}) < diverge_sq ({})",
+              options.converge_sq, options.diverge_sq);
+  const auto dtype = x_posed.scalar_type();
+  FSKIN_CHECK(dtype == torch::kFloat32 || dtype == torch::kFloat64,
+              "broyden_search: x_posed must be float32 or float64");
+  FSKIN_CHECK(transform_grid.scalar_type() == dtype && start_inverses.scalar_type() == dtype,
+              "broyden_search: transform_grid, x_posed and start_inverses must share one dtype");
+  FSKIN_CHECK(transform_grid.device() == x_posed.device() && start_inverses.device() == x_posed.device(),
+              "broyden_search: all inputs must be on one device");
+  expect_finite(start_inverses, "broyden_search: start_inverses");
+
+  const auto grid = transform_grid.detach().contiguous();
+  const auto xp = x_posed.detach().contiguous();
+  // The kernel reads the top 3x4 block of each start transform.
+  const auto starts = start_inverses.detach().narrow(2, 0, 3).contiguous();
+  const auto opts = xp.options();
+  BroydenSearchResult r;
+  r.x_canonical = torch::empty({B, N, I, 3}, opts);
+  r.valid = torch::empty({B, N, I}, opts.dtype(torch::kBool));
+  r.iterations = torch::empty({B, N, I}, opts.dtype(torch::kUInt8));
+  r.start_index = torch::empty({B, N, I}, opts.dtype(torch::kInt64));
+  if (options.return_inverse_jacobian) r.inverse_jacobian = torch::empty({B, N, I, 3, 3}, opts);
+  if (B * N == 0) return r;
+
+  AT_DISPATCH_FLOATING_TYPES(dtype, "broyden_search", [&] {
+    const auto launch = make_launch<scalar_t>(grid, box, xp, starts, I, options, r);
+    if (xp.is_cpu()) {
+      broyden::broyden_search_cpu(launch);
+    } else {
+#ifdef FSKIN_WITH_CUDA
+      FSKIN_CHECK(xp.is_cuda(), "broyden_search: unsupported device {}", xp.device().str());
+      const c10::cuda::CUDAGuard guard(xp.device());
+      broyden::broyden_search_cuda(launch, c10::cuda::getCurrentCUDAStream().stream());
+#else
+      fail("broyden_search: tensors on {} but fskin was built without CUDA kernels", xp.device().str());
+#endif
+    }
+  });
+  return r;
+}
+
+}  // namespace fskin

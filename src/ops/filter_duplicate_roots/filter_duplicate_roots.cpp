@@ -1,0 +1,46 @@
+#include "fskin/ops/filter_duplicate_roots.h"
+
+#include <torch/torch.h>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+#include "ops/filter_duplicate_roots/filter_duplicate_roots_kernel.h"
+
+#ifdef FSKIN_WITH_CUDA
+#include <c10/cuda/CUDAGuard.h>
+#include <c10/cuda/CUDAStream.h>
+#endif
+
+namespace fskin {
+
+torch::Tensor filter_duplicate_roots(const torch::Tensor& x_canonical, const torch::Tensor& valid,
+                                     double distance) {
+  expect_shape(x_canonical, {-1, -1, -1, 3}, "filter_duplicate_roots: x_canonical");
+  expect_shape(valid, {x_canonical.size(0), x_canonical.size(1), x_canonical.size(2)},
+               "filter_duplicate_roots: valid");
+  FSKIN_CHECK(valid.scalar_type() == torch::kBool, "filter_duplicate_roots: valid must be bool");
+  FSKIN_CHECK(distance >= 0, "filter_duplicate_roots: distance {} must be >= 0", distance);
+  FSKIN_CHECK(valid.device() == x_canonical.device(), "filter_duplicate_roots: inputs on different devices");
+  const auto x = x_canonical.detach().contiguous();
+  auto out = valid.clone().contiguous();
+  const int64_t points = x.size(0) * x.size(1);
+  if (points == 0 || x.size(2) < 2) return out;
+  AT_DISPATCH_FLOATING_TYPES(x.scalar_type(), "filter_duplicate_roots", [&] {
+    const broyden::FilterLaunch<scalar_t> launch{x.data_ptr<scalar_t>(), out.data_ptr<bool>(), points,
+                                                 static_cast<int>(x.size(2)),
+                                                 static_cast<scalar_t>(distance * distance)};
+    if (x.is_cpu()) {
+      broyden::filter_duplicate_roots_cpu(launch);
+    } else {
+#ifdef FSKIN_WITH_CUDA
+      const c10::cuda::CUDAGuard guard(x.device());
+      broyden::filter_duplicate_roots_cuda(launch, c10::cuda::getCurrentCUDAStream().stream());
+#else
+      fail("filter_duplicate_roots: tensors on {} but fskin was built without CUDA kernels", x.device().str());
+#endif
+    }
+  });
+  return out;
+}
+
+}  // namespace fskin
