@@ -6,5 +6,7 @@ namespace fskin::cli {
 
 void register_character(CLI::App& app);
 void register_pose(CLI::App& app);
+void register_poses(CLI::App& app);
+void register_data(CLI::App& app);
 
 }  // namespace fskin::cli

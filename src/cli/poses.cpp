@@ -1,0 +1,61 @@
+// fskin poses: generate seeded pose sets for an SMPL-format model's skeleton.
+#include <torch/torch.h>
+
+#include <cstdio>
+
+#include "cli/commands.h"
+#include "fskin/body/body_model.h"
+#include "fskin/data/pose_generators.h"
+
+namespace fskin::cli {
+
+void register_poses(CLI::App& app) {
+  struct Options {
+    std::string model, out;
+    int64_t sequences = 10, frames = 30, count = 50;
+    uint64_t seed = 0;
+  };
+  auto opt = std::make_shared<Options>();
+  auto* cmd = app.add_subcommand("poses", "Generate pose sets (.npz) for a model's skeleton");
+  cmd->require_subcommand(1);
+
+  auto* train = cmd->add_subcommand(
+      "train", "Natural motions (walks, arm swings, bends) within moderate joint ranges");
+  train->add_option("--model", opt->model, "SMPL-format model .npz (for the joint names)")->required();
+  train->add_option("--out", opt->out, "output pose file .npz")->required();
+  train->add_option("--sequences", opt->sequences, "number of motion sequences")
+      ->check(CLI::PositiveNumber);
+  train->add_option("--frames", opt->frames, "frames per sequence")->check(CLI::PositiveNumber);
+  train->add_option("--seed", opt->seed, "random seed");
+  train->callback([opt] {
+    const auto model = BodyModel::load(opt->model);
+    const auto set = make_training_poses(model.data().joint_names,
+                                         {opt->sequences, opt->frames, opt->seed});
+    set.save(opt->out);
+    std::printf("wrote %s: %lld training poses (%lld sequences x %lld frames), %lld joints\n",
+                opt->out.c_str(), static_cast<long long>(set.size()),
+                static_cast<long long>(opt->sequences), static_cast<long long>(opt->frames),
+                static_cast<long long>(set.num_joints()));
+  });
+
+  auto* ood = cmd->add_subcommand(
+      "ood", "Extreme poses outside the training ranges (leg raises, crossed arms, deep bends)");
+  ood->add_option("--model", opt->model, "SMPL-format model .npz (for the joint names)")->required();
+  ood->add_option("--out", opt->out, "output pose file .npz")->required();
+  ood->add_option("--count", opt->count, "number of poses")->check(CLI::PositiveNumber);
+  ood->add_option("--seed", opt->seed, "random seed");
+  ood->callback([opt] {
+    const auto model = BodyModel::load(opt->model);
+    const auto& names = model.data().joint_names;
+    const auto set = make_ood_poses(names, {opt->count, opt->seed});
+    set.save(opt->out);
+    double smallest_excess = INFINITY;
+    for (int64_t i = 0; i < set.size(); ++i)
+      smallest_excess = std::min(smallest_excess, training_range_excess(names, set.poses[i]));
+    std::printf("wrote %s: %lld out-of-distribution poses, each >= %.2f rad beyond the training "
+                "ranges\n",
+                opt->out.c_str(), static_cast<long long>(set.size()), smallest_excess);
+  });
+}
+
+}  // namespace fskin::cli
