@@ -9,4 +9,7 @@ mkdir -p "$OUT"
 "$FSKIN" character --out "$OUT/character_clothed.npz" --seed 0 --clothed
 "$FSKIN" pose --model "$OUT/character.npz" --pose "$OUT/demo_poses.npz" --out "$OUT/posed.ply"
 "$FSKIN" pose --model "$OUT/character_clothed.npz" --pose "$OUT/demo_poses.npz" --out "$OUT/posed_clothed.ply"
+"$FSKIN" render --model "$OUT/character.npz" --color-by-bone --view all --width 256 --height 384 --out "$OUT/character_bones.png"
+"$FSKIN" render --mesh "$OUT/posed_0000.ply" --mesh "$OUT/posed_0003.ply" --mesh "$OUT/posed_clothed_0003.ply" --view all --width 256 --height 384 --out "$OUT/posed.png"
+"$FSKIN" animate --model "$OUT/character.npz" --pose "$OUT/demo_poses.npz" --color-by-bone --fps 2 --out "$OUT/character_poses.glb"
 echo "demo: outputs are in $OUT/"

@@ -16,12 +16,14 @@ int main(int argc, char** argv) {
   int threads = static_cast<int>(std::thread::hardware_concurrency());
   app.add_option("--threads", threads, "CPU threads for LibTorch and fskin kernels")
       ->check(CLI::PositiveNumber);
+  fskin::cli::register_animate(app);
   fskin::cli::register_character(app);
   fskin::cli::register_pose(app);
   fskin::cli::register_poses(app);
   fskin::cli::register_data(app);
   fskin::cli::register_train(app);
   fskin::cli::register_eval(app);
+  fskin::cli::register_render(app);
   // Subcommand callbacks run inside parse(), after the global options are read.
   app.parse_complete_callback([&] { at::set_num_threads(std::max(1, threads)); });
   try {

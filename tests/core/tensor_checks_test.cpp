@@ -17,6 +17,17 @@ TEST(TensorChecks, ShapeMismatchNamesTensorAndShapes) {
   testing::expect_error([] { expect_shape(torch::Tensor(), {3}, "bones"); }, {"bones", "undefined"});
 }
 
+TEST(TensorChecks, ShapeStringMarksWildcards) {
+  EXPECT_EQ(shape_string(std::vector<int64_t>{8, -1, 3}), "[8, *, 3]");
+  EXPECT_EQ(shape_string(std::vector<int64_t>{}), "[]");
+}
+
+TEST(TensorChecks, ExpectFloatingRejectsIntegers) {
+  expect_floating(torch::ones(1, torch::kFloat64), "a");
+  testing::expect_error([] { expect_floating(torch::ones(1, torch::kInt64), "faces"); },
+                        {"faces", "floating-point", "Long"});
+}
+
 TEST(TensorChecks, NonFiniteValuesAreReported) {
   auto t = torch::zeros({4});
   expect_finite(t, "t");

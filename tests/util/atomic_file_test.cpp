@@ -32,6 +32,15 @@ TEST(AtomicFile, FailedWriteLeavesOldContent) {
   EXPECT_EQ(files, 1u);  // the partial temporary was removed
 }
 
+TEST(AtomicFile, UnwritableTargetThrowsAndKeepsNothing) {
+  const auto dir = testing::temp_dir("atomic_unwritable");
+  write_file_atomically((dir / "file").string(), std::string("x"));
+  // A regular file cannot be a parent directory.
+  EXPECT_THROW(write_file_atomically((dir / "file" / "child").string(), std::string("y")),
+               std::exception);
+  EXPECT_EQ(testing::directory_listing(dir), std::vector<std::string>{"file"});
+}
+
 TEST(AtomicFile, ReadMissingFileNamesIt) {
   testing::expect_error([] { read_file("/nonexistent/x.bin"); }, {"/nonexistent/x.bin", "no such file"});
 }

@@ -1,8 +1,9 @@
 #pragma once
-// Triangle mesh files: PLY (ascii and binary little-endian read; binary write)
-// and OBJ (read and write). Errors name the file and the problem: missing file,
-// truncated data, non-triangular faces that cannot be triangulated, face index
-// out of range, NaN/inf coordinates.
+// Triangle mesh files: PLY (read: ascii and binary in either byte order; write:
+// binary little-endian) and OBJ (read and write), with optional per-vertex colours
+// (PLY red/green/blue, OBJ "v x y z r g b"). Polygons are fan-triangulated. Errors
+// name the file and the problem: missing file, bad header, truncated data, faces
+// with fewer than 3 vertices, face index out of range, NaN/inf coordinates.
 #include <string>
 
 #include "fskin/geometry/mesh.h"

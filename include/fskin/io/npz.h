@@ -2,9 +2,12 @@
 // NumPy .npy / .npz reading and writing (the format of SMPL-family model files
 // and of fskin datasets). Supported dtypes: float32, float64, int8, int16,
 // int32, int64, uint8, bool, and little-endian unicode strings ('<U') for name
-// lists. Archives may be stored or deflate-compressed (np.savez and
-// np.savez_compressed). Any other dtype, a truncated file, a bad header or a
-// missing key is reported as fskin::Error naming the file and the array.
+// lists. Reading also accepts uint32 (widened to int64: SMPL's kintree_table),
+// byte strings ('|S'), Fortran-ordered arrays (returned C-contiguous) and header
+// versions 1.0 to 3.0. Archives may be stored or deflate-compressed (np.savez and
+// np.savez_compressed). Any other dtype (big-endian, pickled objects, ...), a
+// truncated file, a bad header or a missing key is reported as fskin::Error
+// naming the file and the array. An NpzReader may be shared between threads.
 #include <torch/types.h>
 
 #include <map>

@@ -1,0 +1,31 @@
+#pragma once
+// An 8-bit RGB picture in memory and its PNG file.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace fskin {
+
+using Rgb8 = std::array<uint8_t, 3>;
+
+struct Image {
+  int width = 0;
+  int height = 0;
+  std::vector<uint8_t> rgb;  // row-major, top row first, 3 bytes per pixel
+
+  Image() = default;
+  Image(int width, int height, Rgb8 fill = {0, 0, 0});
+
+  uint8_t* pixel(int x, int y) { return rgb.data() + 3 * (static_cast<size_t>(y) * width + x); }
+  const uint8_t* pixel(int x, int y) const {
+    return rgb.data() + 3 * (static_cast<size_t>(y) * width + x);
+  }
+  // Copies `tile` with its top-left corner at (x, y); it must fit inside.
+  void paste(const Image& tile, int x, int y);
+};
+
+// Writes `image` as PNG, atomically; throws fskin::Error naming `path` on failure.
+void write_png(const std::string& path, const Image& image);
+
+}  // namespace fskin

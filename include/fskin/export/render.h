@@ -1,0 +1,100 @@
+#pragma once
+// Offscreen software renderer for meshes: pictures for the demo, the CLI
+// (`fskin render`) and reports, on machines without a display or GPU.
+//
+// Why by hand: a z-buffered triangle rasteriser with per-pixel shading is a few
+// hundred lines, while every OpenGL route needs a context that headless CI
+// machines do not have (Debian's offscreen GL stacks, OSMesa aside, want an X
+// display or an EGL device), and ray tracers such as Embree are optional in
+// fskin. The renderer is deterministic, so tests can check its pixels.
+#include <Eigen/Core>
+
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fskin/export/image.h"
+#include "fskin/geometry/mesh.h"
+
+namespace fskin {
+
+// Named camera directions (docs/conventions.md: +Y up, the body faces +Z, +X is
+// the body's left). Front looks along -Z at the face, side looks along -X at
+// the body's left side, back looks along +Z.
+enum class View { Front, ThreeQuarter, Side, Back };
+
+// Camera direction on a sphere around the subject: azimuth about +Y from +Z
+// towards +X, elevation above the horizon (|elevation| < 90).
+struct ViewAngles {
+  double azimuth_degrees = 0;
+  double elevation_degrees = 0;
+};
+
+ViewAngles view_angles(View view);
+// "front", "three-quarter", "side", "back"; throws fskin::Error for others.
+View parse_view(const std::string& name);
+// `count` azimuths evenly around the subject, starting at the front.
+std::vector<ViewAngles> turntable_views(int count, double elevation_degrees = 10);
+
+struct BoundingBox {
+  Eigen::Vector3f lower = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+  Eigen::Vector3f upper = Eigen::Vector3f::Constant(-std::numeric_limits<float>::infinity());
+
+  void extend(const Eigen::Vector3f& point);
+  void extend(const BoundingBox& other);
+  bool empty() const { return (lower.array() > upper.array()).any(); }
+};
+
+BoundingBox bounding_box(const Mesh& mesh);
+
+// A pinhole camera. Camera space: x right, y up, z = depth along `forward`.
+struct Camera {
+  Eigen::Vector3f eye, forward, right, up;
+  double tan_half_fov_y = 0;  // vertical field of view
+  double aspect = 1;          // width / height
+
+  // Camera-space coordinates of a world point.
+  Eigen::Vector3f to_camera(const Eigen::Vector3f& world) const;
+  // Pixel coordinates (x right, y down, pixel centres at +0.5) in a
+  // width x height image; `depth` is the camera-space z.
+  Eigen::Vector2f to_pixel(const Eigen::Vector3f& camera_point, int width, int height) const;
+};
+
+// Places the camera on the ray `angles` from the centre of `box`, at the
+// smallest distance at which all eight corners project inside the picture
+// with `margin` (fraction of the picture size) free on every side.
+Camera frame_camera(const BoundingBox& box, const ViewAngles& angles, double aspect,
+                    double vertical_fov_degrees, double margin);
+
+struct RenderOptions {
+  int width = 512;
+  int height = 512;
+  ViewAngles view = {};
+  int supersampling = 3;  // s x s samples per pixel, box-filtered (anti-aliasing)
+  double vertical_fov_degrees = 30;
+  double margin = 0.05;
+  // Frame this box instead of the mesh's own (same scale in every picture).
+  std::optional<BoundingBox> framing;
+  Rgb8 base_color = {200, 200, 210};  // for meshes without per-vertex colours
+  Rgb8 background_top = {250, 250, 252};
+  Rgb8 background_bottom = {200, 204, 214};
+  // Shading: albedo * (ambient + diffuse * max(0, n.l)) + specular * max(0, n.h)^shininess,
+  // with a key light above and to the left of the camera.
+  double ambient = 0.3;
+  double diffuse = 0.7;
+  double specular = 0.12;
+  double shininess = 40;
+};
+
+// Renders `mesh` (validated; throws fskin::Error naming the problem) into an
+// RGB8 image of options.width x options.height.
+Image render_mesh(const Mesh& mesh, const RenderOptions& options);
+
+// One picture with a row per mesh and a column per view, each cell
+// options.width x options.height. Unless options.framing is set, all cells
+// frame the union of the meshes' boxes, so sizes and motion compare directly.
+Image render_grid(const std::vector<Mesh>& meshes, const std::vector<ViewAngles>& views,
+                  const RenderOptions& options);
+
+}  // namespace fskin
