@@ -5,6 +5,7 @@
 namespace fskin::cli {
 
 void register_animate(CLI::App& app);
+void register_bench(CLI::App& app);
 void register_character(CLI::App& app);
 void register_pose(CLI::App& app);
 void register_poses(CLI::App& app);

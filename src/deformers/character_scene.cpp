@@ -105,8 +105,8 @@ std::shared_ptr<MlpSkinningField> fit_mlp_skinning_field(const CharacterScene& s
   const auto centres = box.voxel_centres().reshape({-1, 3});
   for (int step = 0; step < steps; ++step) {
     // Voxel centres near the body plus surface points: where the search looks.
-    const auto idx = torch::randint(centres.size(0), {4096}, torch::kInt64);
-    const auto x = torch::cat({centres.index_select(0, idx), sample_canonical_surface(scene, 4096, 0.02, seed + step)[0]});
+    const auto idx = torch::randint(centres.size(0), {2048}, torch::kInt64);
+    const auto x = torch::cat({centres.index_select(0, idx), sample_canonical_surface(scene, 2048, 0.02, seed + step)[0]});
     torch::Tensor target;
     {
       torch::NoGradGuard no_grad;

@@ -3,6 +3,7 @@
 #include <torch/cuda.h>
 
 #include <chrono>
+#include <functional>
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
@@ -81,10 +82,16 @@ DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tens
   PreparedPose prepared{[this] { release(); }};
   st.precompute_seconds = precompute.seconds();
 
-  std::vector<torch::Tensor> xs, valids;
+  // Without gradients the chunks go straight into preallocated outputs, so 1e7
+  // points cost the output and one chunk's temporaries, not twice the output.
+  const int64_t I = options_.start_bones.slots(J);
+  std::vector<torch::Tensor> xs;
+  if (!wants_grad) out.x_canonical = torch::empty({B, N, I, 3}, x_posed.options());
+  out.valid = torch::empty({B, N, I}, x_posed.options().dtype(torch::kBool));
   double iteration_sum = 0;
   for (int64_t begin = 0; begin < N; begin += options_.chunk_points) {
-    const auto chunk = x_posed.narrow(1, begin, std::min(options_.chunk_points, N - begin));
+    const int64_t n = std::min(options_.chunk_points, N - begin);
+    const auto chunk = x_posed.narrow(1, begin, n);
     StageTimer search_timer(cuda);
     SearchResult found = [&] {
       torch::NoGradGuard no_grad;
@@ -102,17 +109,14 @@ DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tens
     if (wants_grad) {
       xs.push_back(attach_gradients(found, chunk));
     } else {
-      xs.push_back(found.x.masked_fill(found.valid.logical_not().unsqueeze(-1), 0));
+      out.x_canonical.narrow(1, begin, n).copy_(found.x.masked_fill_(found.valid.logical_not().unsqueeze(-1), 0));
     }
     st.gradient_seconds += gradient_timer.seconds();
-    valids.push_back(found.valid);
+    out.valid.narrow(1, begin, n).copy_(found.valid);
   }
-  out.x_canonical = xs.size() == 1 ? xs[0] : torch::cat(xs, 1);
-  out.valid = valids.size() == 1 ? valids[0] : torch::cat(valids, 1);
-  if (N == 0) {
-    const int64_t I = options_.start_bones.slots(J);
-    out.x_canonical = torch::zeros({B, 0, I, 3}, x_posed.options());
-    out.valid = torch::zeros({B, 0, I}, x_posed.options().dtype(torch::kBool));
+  if (wants_grad) {
+    out.x_canonical = xs.empty() ? torch::zeros({B, 0, I, 3}, x_posed.options())
+                                 : (xs.size() == 1 ? xs[0] : torch::cat(xs, 1));
   }
   st.points = B * N;
   st.candidates = out.valid.numel();

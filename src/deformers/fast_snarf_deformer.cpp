@@ -29,7 +29,9 @@ Deformer::SearchResult FastSnarfDeformer::search(const torch::Tensor& x_posed, c
   if (options_.start_bones.mode == StartBones::Mode::Automatic) {
     o.num_starts = options_.start_bones.slots(field_->num_bones());
   }
-  auto r = broyden_search(transform_grid_.detach(), field_->box(), x_posed, start_inverses, o);
+  torch::Tensor start_weights;
+  if (o.num_starts >= 0) start_weights = field_->grid_weights().detach();  // all bones are candidates
+  auto r = broyden_search(transform_grid_.detach(), field_->box(), x_posed, start_inverses, o, start_weights);
   return {r.x_canonical, r.valid, r.iterations, r.inverse_jacobian};
 }
 

@@ -30,9 +30,10 @@ Deformer::SearchResult SnarfDeformer::search(const torch::Tensor& x_posed, const
     auto x0 = transform_points(start_inverses[b].unsqueeze(0), xp.unsqueeze(1));  // [n, S, 3]
     const auto target = xp.unsqueeze(1).expand({n, I, 3}).reshape({-1, 3});
     if (I < S) {
-      // Automatic starts: the I rigid starts with the smallest residual.
-      const auto r = (deform_prepared(b, x0.reshape({-1, 3})).reshape({n, S, 3}) - xp.unsqueeze(1)).square().sum(-1);
-      const auto order = std::get<1>(r.nan_to_num(INFINITY).topk(I, 1, /*largest=*/false));
+      // Automatic starts: the I bones with the largest weight at their own rigid start.
+      const auto w = field_->weights(x0).to(x0.dtype());  // [n, S, J]; all bones are candidates
+      const auto own = w.diagonal(0, 1, 2);                // [n, S]
+      const auto order = std::get<1>(own.nan_to_num(-1).topk(I, 1));
       x0 = x0.gather(1, order.unsqueeze(-1).expand({n, I, 3}));
     }
     auto x = x0.reshape({-1, 3}).clone();

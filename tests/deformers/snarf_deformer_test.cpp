@@ -35,7 +35,7 @@ TEST(SnarfDeformer, MlpRoundTrip) {
   EXPECT_TRUE((out.x_canonical.masked_select(out.valid.logical_not().unsqueeze(-1)) == 0).all().item<bool>());
 }
 
-TEST(SnarfDeformer, AutomaticStartsKeepTheBestRigidStarts) {
+TEST(SnarfDeformer, AutomaticStartsPickTheBoneDrivingEachPoint) {
   torch::manual_seed(12);
   auto options = DeformerOptions::snarf();
   options.start_bones = StartBones::automatic(1);

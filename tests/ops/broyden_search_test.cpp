@@ -42,16 +42,18 @@ TEST(BroydenSearch, ConstantTransformGridHasOneRoot) {
   EXPECT_FALSE(far.valid.any().item<bool>());
 }
 
-TEST(BroydenSearch, AutomaticSelectionPrefersStartsNearTheRoot) {
+TEST(BroydenSearch, AutomaticSelectionPrefersBonesDrivingTheirStart) {
   const auto grid = torch::eye(4).narrow(0, 0, 3).reshape({1, 1, 1, 1, 12}).expand({1, 4, 5, 6, 12}).contiguous();
-  auto starts = torch::eye(4).repeat({1, 3, 1, 1});
-  starts[0][0][0][3] = 0.4;  // worse start
-  starts[0][2][1][3] = 0.2;  // medium
+  const auto starts = torch::eye(4).repeat({1, 3, 1, 1});
+  // Bone 2 dominates everywhere, then bone 0, then bone 1.
+  const auto weights = torch::tensor({0.3, 0.1, 0.6}).expand({4, 5, 6, 3}).contiguous();
   BroydenSearchOptions o;
   o.num_starts = 2;
-  const auto r = broyden_search(grid, unit_box(), torch::zeros({1, 1, 3}), starts, o);
-  EXPECT_EQ(r.start_index[0][0][0].item<int64_t>(), 1);
-  EXPECT_EQ(r.start_index[0][0][1].item<int64_t>(), 2);
+  const auto r = broyden_search(grid, unit_box(), torch::zeros({1, 1, 3}), starts, o, weights);
+  EXPECT_EQ(r.start_index[0][0][0].item<int64_t>(), 2);
+  EXPECT_EQ(r.start_index[0][0][1].item<int64_t>(), 0);
+  EXPECT_TRUE(r.valid.all().item<bool>());
+  EXPECT_THROW(broyden_search(grid, unit_box(), torch::zeros({1, 1, 3}), starts, o), Error);  // no weights
 }
 
 TEST(BroydenSearch, RejectsBadInput) {

@@ -17,9 +17,8 @@ struct StartBones {
   static StartBones all() { return {}; }
   static StartBones subset(std::vector<int64_t> indices);
   static StartBones by_name(const Skeleton& skeleton, const std::vector<std::string>& names);
-  // Per point, the `count` bones whose rigid start x0 = B_s^-1 x' has the
-  // smallest residual |T(x0) x0 - x'|, i.e. whose inverse lands in a region
-  // that bone actually drives.
+  // Per point, the `count` bones s with the largest weight w_s(B_s^-1 x') at
+  // their own rigid start, i.e. whose inverse lands in the region they drive.
   static StartBones automatic(int64_t count);
   // The papers' SMPL training list: pelvis, hips, knees, shoulders, elbows.
   static const std::vector<std::string>& smpl_training_names();

@@ -18,8 +18,8 @@ struct BroydenSearchOptions {
   double converge_sq = 1e-8;  // squared residual norm, (1e-4)^2
   double diverge_sq = 0.25;   // squared residual norm, (0.5)^2
   double denominator_eps = 0.0;
-  // Per point, keep only the `num_starts` starts with the smallest rigid-start
-  // residual |T(x0) x0 - x'| (automatic start selection); -1 keeps all S.
+  // Per point, keep only the `num_starts` starts s with the largest weight
+  // w_s(B_s^-1 x') (automatic start selection, needs start_weights); -1 keeps all S.
   int64_t num_starts = -1;
   // Also return Broyden's last inverse Jacobian per candidate (for the
   // approximate gradient, Fast-SNARF eq. 16-17).
@@ -36,9 +36,12 @@ struct BroydenSearchResult {
 
 // transform_grid: [B, D, H, W, 12] blended transforms (row-major 3x4) over `box`.
 // x_posed: [B, N, 3]. start_inverses: [B, S, 4, 4] (posed -> canonical rigid
-// inverses of the start bones). Float32 or float64; all on one device.
+// inverses of the start bones). start_weights: [D, H, W, S] skinning weights
+// of the start bones, only read when options.num_starts < S. Float32 or
+// float64; all on one device.
 BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const VoxelBox& box,
                                    const torch::Tensor& x_posed, const torch::Tensor& start_inverses,
-                                   const BroydenSearchOptions& options);
+                                   const BroydenSearchOptions& options,
+                                   const torch::Tensor& start_weights = {});
 
 }  // namespace fskin

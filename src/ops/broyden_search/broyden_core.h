@@ -39,12 +39,10 @@ struct SearchParams {
   T denominator_eps;  // SNARF pushes Broyden's denominator away from 0 by this (0: off)
 };
 
-// Trilinear interpolation of the 12 channels at point p (clamped to the box, as
-// grid_sample's border padding). Returns whether p lies inside the box.
+// The voxel cell of point p: lower corner index and fractions (clamped to the
+// box, as grid_sample's border padding). Returns whether p lies inside the box.
 template <typename T>
-FSKIN_HOST_DEVICE bool trilinear_fetch(const GridView<T>& g, const T p[3], T out[kChannels]) {
-  int i0[3];
-  T frac[3];
+FSKIN_HOST_DEVICE bool locate(const GridView<T>& g, const T p[3], int i0[3], T frac[3]) {
   bool inside = true;
   for (int a = 0; a < 3; ++a) {
     T f = p[a] * g.scale[a] + g.shift[a];
@@ -58,9 +56,25 @@ FSKIN_HOST_DEVICE bool trilinear_fetch(const GridView<T>& g, const T p[3], T out
     i0[a] = i;
     frac[a] = f - static_cast<T>(i);
   }
-  const int64_t row = static_cast<int64_t>(g.size[0]) * kChannels;
-  const int64_t slice = row * g.size[1];
-  const T* base = g.data + i0[2] * slice + i0[1] * row + static_cast<int64_t>(i0[0]) * kChannels;
+  return inside;
+}
+
+template <typename T>
+FSKIN_HOST_DEVICE const T* cell_base(const GridView<T>& g, const int i0[3], int64_t& row, int64_t& slice) {
+  row = static_cast<int64_t>(g.size[0]) * kChannels;
+  slice = row * g.size[1];
+  return g.data + i0[2] * slice + i0[1] * row + static_cast<int64_t>(i0[0]) * kChannels;
+}
+
+// Trilinear interpolation of the 12 channels at point p (Fast-SNARF eq. 14).
+// Returns whether p lies inside the box.
+template <typename T>
+FSKIN_HOST_DEVICE bool trilinear_fetch(const GridView<T>& g, const T p[3], T out[kChannels]) {
+  int i0[3];
+  T frac[3];
+  const bool inside = locate(g, p, i0, frac);
+  int64_t row, slice;
+  const T* base = cell_base(g, i0, row, slice);
   // Corners (x0,x1) of one row are 24 contiguous values: lerp along x, then y, then z.
   T c[4][kChannels];
   for (int r = 0; r < 4; ++r) {
@@ -73,6 +87,24 @@ FSKIN_HOST_DEVICE bool trilinear_fetch(const GridView<T>& g, const T p[3], T out
     out[ch] = y0 + frac[2] * (y1 - y0);
   }
   return inside;
+}
+
+// Asks the CPU to start loading the cell of p (the four 24-value rows), so
+// the fetches of several starts overlap their memory latency. No-op on CUDA.
+template <typename T>
+FSKIN_HOST_DEVICE void prefetch_cell(const GridView<T>& g, const T p[3]) {
+#if !defined(__CUDA_ARCH__) && defined(__GNUC__)
+  int i0[3];
+  T frac[3];
+  locate(g, p, i0, frac);
+  int64_t row, slice;
+  const T* base = cell_base(g, i0, row, slice);
+  for (int r = 0; r < 4; ++r) {
+    const char* v = reinterpret_cast<const char*>(base + (r >> 1) * slice + (r & 1) * row);
+    __builtin_prefetch(v);
+    __builtin_prefetch(v + 2 * kChannels * sizeof(T) - 1);
+  }
+#endif
 }
 
 // y = M x for a row-major 3x4 affine matrix [R | t].
@@ -182,6 +214,11 @@ FSKIN_HOST_DEVICE void solve_lanes(const GridView<T>& grid, const T x_posed[3], 
       }
     }
     if (!any) return;
+    if (L > 1) {
+      for (int l = 0; l < count; ++l) {
+        if (active[l]) prefetch_cell(grid, x[l]);
+      }
+    }
     for (int l = 0; l < count; ++l) {
       if (active[l]) inside[l] = residual(grid, x[l], x_posed, g_new[l], transform[l]);
     }
@@ -207,16 +244,21 @@ FSKIN_HOST_DEVICE SolveResult solve(const GridView<T>& grid, const T x_posed[3],
   return result;
 }
 
-// Squared residual of the rigid start x0 = B_s^-1 x' (infinite outside the box).
-// The automatic start selection ranks bones by it: a bone whose rigid inverse
-// lands in its own region starts next to a root.
+// Score of start bone s for the automatic selection: minus its skinning
+// weight w_s at its own rigid start x0 = B_s^-1 x' (nearest voxel of a
+// [D, H, W, S] weight grid; +inf outside the box). A bone whose inverse lands
+// in the region it drives starts next to a root; one load instead of a
+// 96-value trilinear fetch per candidate.
 template <typename T>
-FSKIN_HOST_DEVICE T start_residual_sq(const GridView<T>& grid, const T x_posed[3], const T start_inverse[kChannels]) {
-  T x0[3], g[3], transform[kChannels];
+FSKIN_HOST_DEVICE T start_score(const GridView<T>& grid, const T* weights, int starts, int s, const T x_posed[3],
+                                const T start_inverse[kChannels]) {
+  T x0[3], frac[3];
+  int i0[3];
   apply_affine(start_inverse, x_posed, x0);
-  if (!residual(grid, x0, x_posed, g, transform)) return INFINITY;
-  const T n = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
-  return n == n ? n : T(INFINITY);
+  if (!locate(grid, x0, i0, frac)) return T(INFINITY);
+  for (int a = 0; a < 3; ++a) i0[a] += frac[a] >= T(0.5);
+  const int64_t voxel = (static_cast<int64_t>(i0[2]) * grid.size[1] + i0[1]) * grid.size[0] + i0[0];
+  return -weights[voxel * starts + s];
 }
 
 // Duplicate removal (Fast-SNARF sec. 4.1): a valid root closer than

@@ -19,8 +19,8 @@ namespace {
 
 template <typename T>
 broyden::SearchLaunch<T> make_launch(const torch::Tensor& grid, const VoxelBox& box, const torch::Tensor& x_posed,
-                                     const torch::Tensor& starts, int64_t slots, const BroydenSearchOptions& o,
-                                     BroydenSearchResult& r) {
+                                     const torch::Tensor& starts, const torch::Tensor& start_weights,
+                                     int64_t slots, const BroydenSearchOptions& o, BroydenSearchResult& r) {
   broyden::SearchLaunch<T> a{};
   const int64_t sizes[3] = {box.shape.width, box.shape.height, box.shape.depth};
   for (int k = 0; k < 3; ++k) {
@@ -34,6 +34,7 @@ broyden::SearchLaunch<T> make_launch(const torch::Tensor& grid, const VoxelBox& 
   a.grid_frame_stride = grid[0].numel();
   a.x_posed = x_posed.data_ptr<T>();
   a.start_inverses = starts.data_ptr<T>();
+  a.start_weights = start_weights.defined() ? start_weights.data_ptr<T>() : nullptr;
   a.batch = x_posed.size(0);
   a.points = x_posed.size(1);
   a.starts = static_cast<int>(starts.size(1));
@@ -52,7 +53,7 @@ broyden::SearchLaunch<T> make_launch(const torch::Tensor& grid, const VoxelBox& 
 
 BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const VoxelBox& box,
                                    const torch::Tensor& x_posed, const torch::Tensor& start_inverses,
-                                   const BroydenSearchOptions& options) {
+                                   const BroydenSearchOptions& options, const torch::Tensor& start_weights) {
   box.validate("broyden_search");
   expect_shape(x_posed, {-1, -1, 3}, "broyden_search: x_posed");
   const int64_t B = x_posed.size(0), N = x_posed.size(1);
@@ -78,6 +79,13 @@ BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const Vo
   FSKIN_CHECK(transform_grid.device() == x_posed.device() && start_inverses.device() == x_posed.device(),
               "broyden_search: all inputs must be on one device");
   expect_finite(start_inverses, "broyden_search: start_inverses");
+  torch::Tensor weights;
+  if (I < S) {
+    expect_shape(start_weights, {box.shape.depth, box.shape.height, box.shape.width, S},
+                 "broyden_search: start_weights (needed by the automatic start selection)");
+    FSKIN_CHECK(start_weights.device() == x_posed.device(), "broyden_search: start_weights on another device");
+    weights = start_weights.detach().to(dtype).contiguous();
+  }
 
   const auto grid = transform_grid.detach().contiguous();
   const auto xp = x_posed.detach().contiguous();
@@ -93,7 +101,7 @@ BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const Vo
   if (B * N == 0) return r;
 
   AT_DISPATCH_FLOATING_TYPES(dtype, "broyden_search", [&] {
-    const auto launch = make_launch<scalar_t>(grid, box, xp, starts, I, options, r);
+    const auto launch = make_launch<scalar_t>(grid, box, xp, starts, weights, I, options, r);
     if (xp.is_cpu()) {
       broyden::broyden_search_cpu(launch);
     } else {

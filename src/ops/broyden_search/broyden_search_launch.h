@@ -14,6 +14,7 @@ struct SearchLaunch {
   int64_t grid_frame_stride;
   const T* x_posed;              // [B, N, 3]
   const T* start_inverses;       // [B, S, 12] row-major 3x4
+  const T* start_weights;        // [D, H, W, S] weights of the start bones (automatic selection) or nullptr
   int64_t batch, points;
   int starts, slots;             // S candidate starts, I kept per point (I <= S)
   SearchParams<T> params;
@@ -31,16 +32,17 @@ FSKIN_HOST_DEVICE GridView<T> frame_grid(const SearchLaunch<T>& a, int64_t b) {
   return g;
 }
 
-// Residuals of all S rigid starts of point `pn` (= b * N + n) into r[0..S).
+// Scores of all S starts of point `pn` (= b * N + n) into r[0..S), lower is better.
 template <typename T>
-FSKIN_HOST_DEVICE void rank_inputs(const SearchLaunch<T>& a, int64_t pn, T* r) {
+FSKIN_HOST_DEVICE void score_starts(const SearchLaunch<T>& a, int64_t pn, T* r) {
   const int64_t b = pn / a.points;
-  const GridView<T> g = frame_grid(a, b);
   const T* xp = a.x_posed + 3 * pn;
-  for (int s = 0; s < a.starts; ++s) r[s] = start_residual_sq(g, xp, a.start_inverses + (b * a.starts + s) * kChannels);
+  for (int s = 0; s < a.starts; ++s) {
+    r[s] = start_score(a.grid, a.start_weights, a.starts, s, xp, a.start_inverses + (b * a.starts + s) * kChannels);
+  }
 }
 
-// The start holding rank `rank` when sorting residuals ascending (ties by index).
+// The start holding rank `rank` when sorting scores ascending (ties by index).
 template <typename T>
 FSKIN_HOST_DEVICE int start_of_rank(const T* r, int count, int rank) {
   for (int s = 0; s < count; ++s) {

@@ -14,13 +14,13 @@ template <typename T>
 void broyden_search_cpu(const SearchLaunch<T>& a) {
   const bool automatic = a.slots < a.starts;
   at::parallel_for(0, a.batch * a.points, 256, [&](int64_t begin, int64_t end) {
-    T residuals[kMaxStarts];
+    T scores[kMaxStarts];
     int starts[kLanes];
     for (int64_t pn = begin; pn < end; ++pn) {
-      if (automatic) rank_inputs(a, pn, residuals);
+      if (automatic) score_starts(a, pn, scores);
       for (int first = 0; first < a.slots; first += kLanes) {
         const int count = a.slots - first < kLanes ? a.slots - first : kLanes;
-        for (int l = 0; l < count; ++l) starts[l] = automatic ? start_of_rank(residuals, a.starts, first + l) : first + l;
+        for (int l = 0; l < count; ++l) starts[l] = automatic ? start_of_rank(scores, a.starts, first + l) : first + l;
         search_slots<T, kLanes>(a, pn, first, count, starts);
       }
     }

@@ -19,9 +19,9 @@ __global__ void broyden_search_kernel(const SearchLaunch<T> a) {
   const int slot = static_cast<int>(pair % a.slots);
   int start = slot;
   if (a.slots < a.starts) {
-    T residuals[kMaxStarts];
-    rank_inputs(a, pn, residuals);
-    start = start_of_rank(residuals, a.starts, slot);
+    T scores[kMaxStarts];
+    score_starts(a, pn, scores);
+    start = start_of_rank(scores, a.starts, slot);
   }
   search_slots<T, 1>(a, pn, slot, 1, &start);
 }
