@@ -53,10 +53,20 @@ OccupancyPrediction ArticulatedOccupancyModel::predict(const torch::Tensor& poin
   out.deformer_seconds = seconds_since(start);
 
   start = Clock::now();
-  // Invalid candidates hold zeros; evaluating them too keeps the batch dense
-  // and the aggregation masks them out.
-  const auto logits = canonical_logits(found.x_canonical.flatten(1, 2), pose)
-                          .view({points.size(0), points.size(1), found.valid.size(2)});
+  // The shape network runs only on valid candidates (typically ~1 of the I
+  // slots); invalid slots keep a placeholder the aggregation masks out.
+  const int64_t B = points.size(0), slots = points.size(1) * found.valid.size(2);
+  std::vector<torch::Tensor> indices, values;
+  for (int64_t b = 0; b < B; ++b) {
+    const auto selected = found.valid[b].flatten().nonzero().squeeze(1);
+    if (selected.numel() == 0) continue;
+    const auto x = found.x_canonical[b].reshape({-1, 3}).index_select(0, selected).unsqueeze(0);
+    values.push_back(canonical_logits(x, pose.slice(0, b, b + 1)).squeeze(0));
+    indices.push_back(selected + b * slots);
+  }
+  auto logits = torch::full({B * slots}, -kMaxOccupancyLogit, points.options());
+  if (!values.empty()) logits = logits.index_put({torch::cat(indices)}, torch::cat(values));
+  logits = logits.view({B, points.size(1), found.valid.size(2)});
   out.shape_seconds = seconds_since(start);
 
   start = Clock::now();
