@@ -10,6 +10,8 @@ void register_character(CLI::App& app);
 void register_pose(CLI::App& app);
 void register_poses(CLI::App& app);
 void register_data(CLI::App& app);
+void register_train(CLI::App& app);
+void register_eval(CLI::App& app);
 void register_render(CLI::App& app);
 
 }  // namespace fskin::cli

@@ -1,0 +1,70 @@
+#pragma once
+// Everything that defines a training run, as one JSON document: defaults (the
+// CPU demo size), overlaid by a config file, overlaid by command-line
+// assignments, and saved into the run directory so evaluation and resume
+// rebuild exactly the same model.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "fskin/training/articulated_occupancy_model.h"
+#include "fskin/training/batch_source.h"
+
+namespace fskin {
+
+struct TrainConfig {
+  std::string data;  // dataset directory the run trains on (recorded for evaluation)
+  std::string method = "fast-snarf";
+  uint64_t seed = 0;
+  int64_t steps = 2000;
+  // Batch: frames x (near-surface + uniform) points (papers: 8 x (2000 + 250)).
+  int64_t frames_per_batch = 8;
+  int64_t surface_points = 1000;
+  int64_t uniform_points = 125;
+  double learning_rate = 1e-3;
+  double grad_clip = 0;  // max gradient norm; 0: none (Fast-SNARF), 0.1 (SNARF)
+  // Bootstrap losses (SNARF sec. 3.3) during the first epochs.
+  double bootstrap_epochs = 1;
+  int64_t bone_points_per_bone = 5;
+  double joint_weight_loss_weight = 10;
+  int64_t checkpoint_every = 200;
+  int64_t keep_checkpoints = 2;
+  // Occupancy network; the pose vector's width comes from the skeleton.
+  int64_t occupancy_hidden_dim = 128;
+  int64_t occupancy_hidden_layers = 4;
+  std::vector<int64_t> occupancy_skip_layers{2};
+  bool pose_conditioning = true;
+  int64_t pose_embedding_dim = 8;
+  int64_t pose_layer = 2;
+  int64_t encoding_frequencies = 0;
+  double init_radius = 1.0;
+  // Skinning MLP and (Fast-SNARF) its voxel grid, depth/height/width = z/y/x.
+  int64_t skinning_hidden_dim = 128;
+  int64_t skinning_hidden_layers = 4;
+  std::vector<int64_t> grid{16, 64, 64};
+  // "smpl-training" (the papers' 9 bones), "all", or "automatic:K".
+  std::string start_bones = "smpl-training";
+  int64_t max_iterations = 0;  // 0: the method's reference value
+  int64_t eval_chunk_points = 20000;
+
+  // The papers' full size: 8 x 256 occupancy network, 2000 + 250 points.
+  static TrainConfig full();
+
+  std::string to_json() const;
+  // Overlays a JSON object on `base` (e.g. TrainConfig{} or full()); unknown
+  // keys are errors naming `context`.
+  static TrainConfig from_json(const std::string& text, const std::string& context, const TrainConfig& base);
+  static TrainConfig load(const std::string& path, const TrainConfig& base);
+  // Applies "key=value" (value in JSON syntax, or a bare string).
+  void set(const std::string& assignment);
+  void validate() const;
+
+  // Epoch length in steps for a training set of `frames` frames.
+  int64_t bootstrap_steps(int64_t frames) const;
+};
+
+// The model a config describes for a skeleton (bones, pose width, voxel box
+// spanning skeleton.extent, start bones by joint name).
+ArticulatedModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& skeleton);
+
+}  // namespace fskin

@@ -1,0 +1,44 @@
+#pragma once
+// The training loop of SNARF / Fast-SNARF: BCE on posed occupancy with the
+// soft-max aggregation, plus the bootstrap losses during the first epoch;
+// Adam. The run directory holds config.json, log.jsonl (one JSON object per
+// step) and checkpoints (model, optimiser, step) written atomically every
+// checkpoint_every steps and at exit. Batches depend only on (seed, step), so a
+// resumed run continues the very same schedule bit for bit.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "fskin/training/articulated_occupancy_model.h"
+#include "fskin/training/batch_source.h"
+#include "fskin/training/stop_signal.h"
+#include "fskin/training/train_config.h"
+
+namespace fskin {
+
+struct TrainOptions {
+  std::string run_dir;
+  bool resume = false;  // continue from the newest intact checkpoint in run_dir
+  bool progress = true;
+  const StopSignal* stop = nullptr;  // finish the step, checkpoint, return
+};
+
+struct TrainResult {
+  int64_t first_step = 0, last_step = 0;  // steps run: [first_step, last_step)
+  double first_loss = 0, last_loss = 0;    // BCE of the first and last step run
+  double seconds = 0;
+  bool stopped = false;  // by the stop signal
+};
+
+// Seed of everything random in step `step` of a run seeded with `seed`.
+uint64_t step_seed(uint64_t seed, int64_t step);
+
+TrainResult train(const TrainConfig& config, const BatchSource& source, const TrainOptions& options);
+
+// The model of a run: config.json in run_dir, weights from its newest intact
+// checkpoint (throws fskin::Error naming run_dir if there is none).
+std::shared_ptr<ArticulatedOccupancyModel> load_trained_model(const std::string& run_dir,
+                                                              const CanonicalSkeleton& skeleton,
+                                                              int64_t* step = nullptr);
+
+}  // namespace fskin

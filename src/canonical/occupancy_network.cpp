@@ -1,0 +1,92 @@
+#include "fskin/canonical/occupancy_network.h"
+
+#include <cmath>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+
+namespace fskin {
+
+OccupancyNetworkOptions OccupancyNetworkOptions::snarf(int64_t pose_dim) {
+  OccupancyNetworkOptions o;
+  o.pose_dim = pose_dim;
+  return o;
+}
+
+OccupancyNetworkOptions OccupancyNetworkOptions::fast_snarf(int64_t pose_dim) {
+  OccupancyNetworkOptions o = snarf(pose_dim);
+  o.pose_layer = 6;
+  return o;
+}
+
+OccupancyNetworkOptions OccupancyNetworkOptions::demo(int64_t pose_dim) {
+  OccupancyNetworkOptions o;
+  o.hidden_dim = 128;
+  o.hidden_layers = 4;
+  o.skip_layers = {2};
+  o.pose_dim = pose_dim;
+  o.pose_layer = 2;
+  return o;
+}
+
+void OccupancyNetworkOptions::validate() const {
+  FSKIN_CHECK(hidden_dim > 0 && hidden_layers > 0, "occupancy network: hidden size {} x {} must be positive",
+              hidden_layers, hidden_dim);
+  FSKIN_CHECK(pose_dim >= 0, "occupancy network: pose_dim {} must be >= 0", pose_dim);
+  FSKIN_CHECK(pose_dim == 0 || (pose_embedding_dim > 0 && pose_layer >= 0 && pose_layer <= hidden_layers),
+              "occupancy network: pose_layer {} must be in 0..{} and pose_embedding_dim {} positive", pose_layer,
+              hidden_layers, pose_embedding_dim);
+  FSKIN_CHECK(encoding_frequencies >= 0 && encoding_frequencies <= 16,
+              "occupancy network: encoding_frequencies {} must be in 0..16", encoding_frequencies);
+  FSKIN_CHECK(init_radius > 0, "occupancy network: init_radius {} must be positive", init_radius);
+}
+
+torch::Tensor positional_encoding(const torch::Tensor& x, int64_t frequencies) {
+  if (frequencies == 0) return x;
+  std::vector<torch::Tensor> parts{x};
+  for (int64_t k = 0; k < frequencies; ++k) {
+    const auto scaled = x * (std::ldexp(1.0, static_cast<int>(k)) * M_PI);
+    parts.push_back(scaled.sin());
+    parts.push_back(scaled.cos());
+  }
+  return torch::cat(parts, -1);
+}
+
+OccupancyNetworkImpl::OccupancyNetworkImpl(const OccupancyNetworkOptions& options) : options_(options) {
+  options.validate();
+  MlpOptions mlp;
+  mlp.input_dim = 3 + 6 * options.encoding_frequencies;
+  mlp.output_dim = 1;
+  mlp.hidden_dim = options.hidden_dim;
+  mlp.hidden_layers = options.hidden_layers;
+  mlp.skip_layers = options.skip_layers;
+  mlp.geometric_init = options.geometric_init;
+  mlp.geometric_init_radius = options.init_radius;
+  if (options.pose_dim > 0) {
+    mlp.condition_dim = options.pose_embedding_dim;
+    mlp.condition_layer = options.pose_layer;
+    pose_embedding_ = register_module(
+        "pose_embedding", torch::nn::Linear(options.pose_dim, options.pose_embedding_dim));
+  }
+  mlp_ = register_module("mlp", Mlp(mlp));
+}
+
+torch::Tensor OccupancyNetworkImpl::forward(const torch::Tensor& x, const torch::Tensor& pose) {
+  FSKIN_CHECK(x.dim() >= 2 && x.size(-1) == 3, "occupancy network: points must be [B, ..., 3], got {}",
+              shape_string(x.sizes()));
+  const auto encoded = positional_encoding(x, options_.encoding_frequencies);
+  if (options_.pose_dim == 0) return mlp_->forward(encoded).squeeze(-1);
+  FSKIN_CHECK(pose.defined() && pose.dim() == 2 && pose.size(0) == x.size(0) &&
+                  pose.size(1) == options_.pose_dim,
+              "occupancy network: pose must be [{}, {}], got {}", x.size(0), options_.pose_dim,
+              pose.defined() ? shape_string(pose.sizes()) : std::string("none"));
+  // One embedding per frame, broadcast to all of its points.
+  std::vector<int64_t> view(x.dim(), 1), expanded(x.sizes().begin(), x.sizes().end());
+  view.front() = x.size(0);
+  view.back() = options_.pose_embedding_dim;
+  expanded.back() = options_.pose_embedding_dim;
+  const auto condition = pose_embedding_->forward(pose).view(view).expand(expanded);
+  return mlp_->forward(encoded, condition).squeeze(-1);
+}
+
+}  // namespace fskin

@@ -1,0 +1,58 @@
+// fskin train: learn a canonical occupancy and skinning field from posed frames.
+#include <cstdio>
+#include <filesystem>
+
+#include "cli/commands.h"
+#include "fskin/core/error.h"
+#include "fskin/data/dataset.h"
+#include "fskin/training/dataset_source.h"
+#include "fskin/training/stop_signal.h"
+#include "fskin/training/trainer.h"
+
+namespace fskin::cli {
+
+void register_train(CLI::App& app) {
+  struct Options {
+    std::string data, method, out, config;
+    int64_t steps = -1;
+    std::vector<std::string> assignments;
+    bool resume = false, full = false, quiet = false;
+  };
+  auto opt = std::make_shared<Options>();
+  auto* cmd = app.add_subcommand("train", "Train an articulated occupancy model (SNARF / Fast-SNARF)");
+  cmd->add_option("--data", opt->data, "dataset directory (fskin data build); default: the run's");
+  cmd->add_option("--method", opt->method, "fast-snarf or snarf");
+  cmd->add_option("--out", opt->out, "run directory (config, log.jsonl, checkpoints)")->required();
+  cmd->add_option("--config", opt->config, "JSON config overlaid on the defaults");
+  cmd->add_option("--steps", opt->steps, "total training steps");
+  cmd->add_option("--set", opt->assignments, "config override key=value (repeatable)");
+  cmd->add_flag("--full", opt->full, "start from the papers' full-size config instead of the CPU demo size");
+  cmd->add_flag("--resume", opt->resume, "continue from the newest intact checkpoint in --out");
+  cmd->add_flag("--quiet", opt->quiet, "no progress bar");
+  cmd->callback([opt] {
+    const auto saved = (std::filesystem::path(opt->out) / "config.json").string();
+    TrainConfig config = opt->full ? TrainConfig::full() : TrainConfig{};
+    if (opt->resume && std::filesystem::exists(saved)) config = TrainConfig::load(saved, config);
+    if (!opt->config.empty()) config = TrainConfig::load(opt->config, config);
+    if (!opt->data.empty()) config.data = std::filesystem::absolute(opt->data).string();
+    if (!opt->method.empty()) config.method = opt->method;
+    if (opt->steps >= 0) config.steps = opt->steps;
+    for (const auto& a : opt->assignments) config.set(a);
+    config.validate();
+    FSKIN_CHECK(!config.data.empty(), "train: no --data given (and no saved run config in {})", opt->out);
+
+    const auto dataset = Dataset::load(config.data, "train");
+    const DatasetBatchSource source(dataset);
+    StopSignal stop;
+    std::printf("training %s on %lld frames of %s for %lld steps -> %s\n", config.method.c_str(),
+                static_cast<long long>(dataset.size()), config.data.c_str(), static_cast<long long>(config.steps),
+                opt->out.c_str());
+    const auto result = train(config, source, {opt->out, opt->resume, !opt->quiet, &stop});
+    std::printf("%s at step %lld: loss %.4f -> %.4f, %.1f s (%.2f steps/s)\n",
+                result.stopped ? "stopped" : "finished", static_cast<long long>(result.last_step), result.first_loss,
+                result.last_loss, result.seconds,
+                result.seconds > 0 ? static_cast<double>(result.last_step - result.first_step) / result.seconds : 0.0);
+  });
+}
+
+}  // namespace fskin::cli

@@ -1,0 +1,39 @@
+#include "fskin/training/bootstrap_losses.h"
+
+#include <torch/torch.h>
+
+#include "fskin/core/error.h"
+
+namespace fskin {
+
+torch::Tensor sample_bone_points(const CanonicalSkeleton& skeleton, int64_t per_bone, at::Generator& generator) {
+  FSKIN_CHECK(per_bone >= 1, "bootstrap: points per bone must be >= 1, got {}", per_bone);
+  std::vector<int64_t> heads, tails;
+  for (int64_t j = 1; j < static_cast<int64_t>(skeleton.parents.size()); ++j) {
+    heads.push_back(skeleton.parents[j]);
+    tails.push_back(j);
+  }
+  FSKIN_CHECK(!heads.empty(), "bootstrap: the skeleton has no bones (one joint)");
+  const auto joints = skeleton.joints.to(torch::kFloat32);
+  const auto head = joints.index_select(0, torch::tensor(heads)).unsqueeze(1);  // [S, 1, 3]
+  const auto tail = joints.index_select(0, torch::tensor(tails)).unsqueeze(1);
+  const auto base = torch::linspace(0.0, 1.0, per_bone).view({1, per_bone, 1});
+  const auto noise = torch::randn({static_cast<int64_t>(heads.size()), per_bone, 1}, generator) * 0.1;
+  const auto t = (base + noise).clamp(0.0, 1.0);
+  return (head + t * (tail - head)).view({-1, 3});
+}
+
+torch::Tensor bone_occupancy_loss(ArticulatedOccupancyModel& model, const torch::Tensor& bone_points,
+                                  const torch::Tensor& pose) {
+  const auto x = bone_points.unsqueeze(0).expand({pose.size(0), bone_points.size(0), 3});
+  const auto logits = model.canonical_logits(x, pose);
+  return torch::binary_cross_entropy_with_logits(logits, torch::ones_like(logits));
+}
+
+torch::Tensor joint_weight_loss(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton) {
+  const auto joints = skeleton.joints.to(torch::kFloat32);
+  const auto weights = model.skinning_weights(joints);  // [J, J]
+  return torch::mse_loss(weights, torch::eye(joints.size(0)));
+}
+
+}  // namespace fskin

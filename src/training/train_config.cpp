@@ -1,0 +1,141 @@
+#include "fskin/training/train_config.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+#include "fskin/core/error.h"
+#include "fskin/deformers/start_bones.h"
+#include "fskin/util/atomic_file.h"
+
+namespace fskin {
+
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
+    TrainConfig, data, method, seed, steps, frames_per_batch, surface_points, uniform_points, learning_rate, grad_clip,
+    bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, checkpoint_every, keep_checkpoints,
+    occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
+    pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, grid, start_bones,
+    max_iterations, eval_chunk_points)
+
+TrainConfig TrainConfig::full() {
+  TrainConfig c;
+  c.surface_points = 2000;
+  c.uniform_points = 250;
+  c.steps = 45000;
+  c.checkpoint_every = 1000;
+  c.occupancy_hidden_dim = 256;
+  c.occupancy_hidden_layers = 8;
+  c.occupancy_skip_layers = {4};
+  c.pose_layer = 6;  // Fast-SNARF's choice; SNARF used 4
+  return c;
+}
+
+std::string TrainConfig::to_json() const { return nlohmann::json(*this).dump(2) + "\n"; }
+
+TrainConfig TrainConfig::from_json(const std::string& text, const std::string& context, const TrainConfig& base) {
+  nlohmann::json overlay;
+  try {
+    overlay = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    fail("{}: not valid JSON ({})", context, e.what());
+  }
+  FSKIN_CHECK(overlay.is_object(), "{}: the config must be a JSON object", context);
+  nlohmann::json merged = base;
+  for (const auto& [key, value] : overlay.items()) {
+    FSKIN_CHECK(merged.contains(key), "{}: unknown config key '{}'", context, key);
+    merged[key] = value;
+  }
+  TrainConfig config;
+  try {
+    config = merged.get<TrainConfig>();
+  } catch (const nlohmann::json::exception& e) {
+    fail("{}: wrong value type ({})", context, e.what());
+  }
+  config.validate();
+  return config;
+}
+
+TrainConfig TrainConfig::load(const std::string& path, const TrainConfig& base) {
+  return from_json(read_file(path), path, base);
+}
+
+void TrainConfig::set(const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  FSKIN_CHECK(eq != std::string::npos && eq > 0, "--set '{}': expected key=value", assignment);
+  const std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+  nlohmann::json value;
+  try {
+    value = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception&) {
+    value = text;  // a bare string such as method=snarf
+  }
+  *this = from_json(nlohmann::json{{key, value}}.dump(), "--set " + assignment, *this);
+}
+
+void TrainConfig::validate() const {
+  parse_method(method);
+  FSKIN_CHECK(steps >= 0, "config: steps {} must be >= 0", steps);
+  FSKIN_CHECK(frames_per_batch >= 1 && surface_points >= 0 && uniform_points >= 0 &&
+                  surface_points + uniform_points >= 1,
+              "config: batch of {} frames x ({} + {}) points is empty", frames_per_batch, surface_points,
+              uniform_points);
+  FSKIN_CHECK(learning_rate > 0 && std::isfinite(learning_rate), "config: learning_rate {} must be positive",
+              learning_rate);
+  FSKIN_CHECK(grad_clip >= 0 && bootstrap_epochs >= 0 && joint_weight_loss_weight >= 0,
+              "config: grad_clip, bootstrap_epochs and joint_weight_loss_weight must be >= 0");
+  FSKIN_CHECK(checkpoint_every >= 1 && keep_checkpoints >= 1, "config: checkpoint_every {} and keep_checkpoints {} must be >= 1",
+              checkpoint_every, keep_checkpoints);
+  FSKIN_CHECK(grid.size() == 3 && *std::min_element(grid.begin(), grid.end()) >= 2,
+              "config: grid must be [depth, height, width], each >= 2");
+  FSKIN_CHECK(max_iterations >= 0 && eval_chunk_points >= 1, "config: max_iterations and eval_chunk_points out of range");
+  FSKIN_CHECK(start_bones == "smpl-training" || start_bones == "all" || start_bones.rfind("automatic:", 0) == 0,
+              "config: start_bones '{}' must be smpl-training, all or automatic:K", start_bones);
+}
+
+int64_t TrainConfig::bootstrap_steps(int64_t frames) const {
+  const double epoch = std::ceil(static_cast<double>(frames) / static_cast<double>(frames_per_batch));
+  return static_cast<int64_t>(std::ceil(bootstrap_epochs * epoch));
+}
+
+namespace {
+StartBones resolve_start_bones(const std::string& spec, const CanonicalSkeleton& skeleton) {
+  if (spec == "all") return StartBones::all();
+  if (spec.rfind("automatic:", 0) == 0) return StartBones::automatic(std::stoll(spec.substr(10)));
+  std::vector<int64_t> indices;
+  for (const auto& name : StartBones::smpl_training_names()) {
+    const auto it = std::find(skeleton.joint_names.begin(), skeleton.joint_names.end(), name);
+    FSKIN_CHECK(it != skeleton.joint_names.end(),
+                "start_bones smpl-training: the skeleton has no joint '{}' (use all or automatic:K)", name);
+    indices.push_back(it - skeleton.joint_names.begin());
+  }
+  return StartBones::subset(indices);
+}
+}  // namespace
+
+ArticulatedModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& skeleton) {
+  config.validate();
+  const auto num_bones = static_cast<int64_t>(skeleton.parents.size());
+  ArticulatedModelOptions o;
+  o.method = parse_method(config.method);
+  auto& occ = o.occupancy;
+  occ.hidden_dim = config.occupancy_hidden_dim;
+  occ.hidden_layers = config.occupancy_hidden_layers;
+  occ.skip_layers = config.occupancy_skip_layers;
+  occ.pose_dim = config.pose_conditioning ? 3 * (num_bones - 1) : 0;
+  occ.pose_embedding_dim = config.pose_embedding_dim;
+  occ.pose_layer = config.pose_layer;
+  occ.encoding_frequencies = config.encoding_frequencies;
+  occ.init_radius = config.init_radius;
+  o.skinning.num_bones = num_bones;
+  o.skinning.hidden_dim = config.skinning_hidden_dim;
+  o.skinning.hidden_layers = config.skinning_hidden_layers;
+  o.box = VoxelBox::around(skeleton.extent.to(torch::kFloat64),
+                           GridShape{config.grid[0], config.grid[1], config.grid[2]});
+  o.deformer = o.method == Method::FastSnarf ? DeformerOptions::fast_snarf() : DeformerOptions::snarf();
+  if (config.max_iterations > 0) o.deformer.max_iterations = static_cast<int>(config.max_iterations);
+  o.deformer.start_bones = resolve_start_bones(config.start_bones, skeleton);
+  return o;
+}
+
+}  // namespace fskin

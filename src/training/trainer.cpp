@@ -1,0 +1,194 @@
+#include "fskin/training/trainer.h"
+
+#include <ATen/CPUGeneratorImpl.h>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <torch/torch.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "fskin/core/error.h"
+#include "fskin/training/bootstrap_losses.h"
+#include "fskin/training/checkpoint.h"
+#include "fskin/util/atomic_file.h"
+#include "fskin/util/progress.h"
+
+namespace fskin {
+
+namespace fs = std::filesystem;
+
+uint64_t step_seed(uint64_t seed, int64_t step) {
+  // SplitMix64 finaliser of (seed, step): neighbouring steps get unrelated streams.
+  uint64_t z = seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(step) + 0x632BE59BD9B4E019ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+namespace {
+
+std::string config_path(const std::string& run_dir) { return (fs::path(run_dir) / "config.json").string(); }
+std::string log_path(const std::string& run_dir) { return (fs::path(run_dir) / "log.jsonl").string(); }
+
+void save_state(const std::string& run_dir, int64_t step, ArticulatedOccupancyModel& model,
+                torch::optim::Optimizer& optimizer, int keep) {
+  save_checkpoint(run_dir, step,
+                  [&](torch::serialize::OutputArchive& archive) {
+                    torch::serialize::OutputArchive model_archive, optimizer_archive;
+                    model.save(model_archive);
+                    optimizer.save(optimizer_archive);
+                    archive.write("model", model_archive);
+                    archive.write("optimizer", optimizer_archive);
+                    archive.write("step", torch::tensor(step));
+                  },
+                  keep);
+}
+
+std::optional<int64_t> load_state(const std::string& run_dir, ArticulatedOccupancyModel& model,
+                                  torch::optim::Optimizer* optimizer) {
+  int64_t step = 0;
+  const auto path = load_latest_checkpoint(run_dir, [&](torch::serialize::InputArchive& archive) {
+    torch::serialize::InputArchive model_archive;
+    archive.read("model", model_archive);
+    model.load(model_archive);
+    if (optimizer) {
+      torch::serialize::InputArchive optimizer_archive;
+      archive.read("optimizer", optimizer_archive);
+      optimizer->load(optimizer_archive);
+    }
+    torch::Tensor t;
+    archive.read("step", t);
+    step = t.item<int64_t>();
+  });
+  if (!path) return std::nullopt;
+  return step;
+}
+
+// On resume the log keeps only the steps the checkpoint contains, so a run
+// killed after its last checkpoint does not log those steps twice.
+void truncate_log(const std::string& path, int64_t step) {
+  if (!fs::exists(path)) return;
+  std::istringstream in(read_file(path));
+  std::string kept, line;
+  while (std::getline(in, line)) {
+    try {
+      if (nlohmann::json::parse(line).at("step").get<int64_t>() <= step) kept += line + "\n";
+    } catch (const nlohmann::json::exception&) {
+      // A line cut by a kill: dropped.
+    }
+  }
+  write_file_atomically(path, kept);
+}
+
+double batch_iou(const torch::Tensor& logits, const torch::Tensor& occupancy) {
+  const auto pred = logits > 0, gt = occupancy > 0.5;
+  const double uni = (pred | gt).sum().item<double>();
+  return uni == 0 ? 1.0 : (pred & gt).sum().item<double>() / uni;
+}
+
+}  // namespace
+
+TrainResult train(const TrainConfig& config, const BatchSource& source, const TrainOptions& options) {
+  config.validate();
+  FSKIN_CHECK(!options.run_dir.empty(), "train: no run directory given");
+  FSKIN_CHECK(source.num_frames() > 0, "train: the training data has no frames");
+  fs::create_directories(options.run_dir);
+  write_file_atomically(config_path(options.run_dir), config.to_json());
+
+  torch::manual_seed(config.seed);
+  const auto& skeleton = source.skeleton();
+  ArticulatedOccupancyModel model(model_options(config, skeleton));
+  model.train(true);
+  torch::optim::Adam adam(model.parameters(), torch::optim::AdamOptions(config.learning_rate));
+
+  int64_t step = 0;
+  if (options.resume) {
+    const auto loaded = load_state(options.run_dir, model, &adam);
+    FSKIN_CHECK(loaded.has_value(), "train --resume: no intact checkpoint in {}", options.run_dir);
+    step = *loaded;
+  }
+  const std::string log_file = log_path(options.run_dir);
+  if (options.resume) {
+    truncate_log(log_file, step);
+  } else {
+    write_file_atomically(log_file, std::string());
+  }
+  std::ofstream log(log_file, std::ios::app);
+  FSKIN_CHECK(log.good(), "train: cannot append to {}", log_file);
+
+  TrainResult result;
+  result.first_step = step;
+  const int64_t bootstrap_steps = config.bootstrap_steps(source.num_frames());
+  const auto start = std::chrono::steady_clock::now();
+  ProgressBar bar("train", std::max<int64_t>(config.steps - step, 0), options.progress);
+  int64_t saved_step = options.resume ? step : -1;
+  while (step < config.steps) {
+    if (options.stop && options.stop->requested()) {
+      result.stopped = true;
+      break;
+    }
+    const auto step_start = std::chrono::steady_clock::now();
+    const uint64_t seed = step_seed(config.seed, step);
+    const auto batch = source.batch(config.frames_per_batch, config.surface_points, config.uniform_points, seed);
+    auto prediction = model.predict(batch.points, batch.bone_transforms, batch.pose, Aggregation::Soft);
+    const auto bce = torch::binary_cross_entropy_with_logits(prediction.logits, batch.occupancy);
+    auto loss = bce;
+    double bootstrap = 0;
+    if (step < bootstrap_steps) {
+      auto generator = at::make_generator<at::CPUGeneratorImpl>(seed);
+      const auto bone_points = sample_bone_points(skeleton, config.bone_points_per_bone, generator);
+      const auto extra = bone_occupancy_loss(model, bone_points, batch.pose) +
+                         config.joint_weight_loss_weight * joint_weight_loss(model, skeleton);
+      bootstrap = extra.item<double>();
+      loss = loss + extra;
+    }
+    adam.zero_grad();
+    loss.backward();
+    if (config.grad_clip > 0) torch::nn::utils::clip_grad_norm_(model.parameters(), config.grad_clip);
+    adam.step();
+    ++step;
+
+    const double bce_value = bce.item<double>();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
+    const double iou = batch_iou(prediction.logits.detach(), batch.occupancy);
+    if (step == result.first_step + 1) result.first_loss = bce_value;
+    result.last_loss = bce_value;
+    nlohmann::json line = {{"step", step},
+                           {"loss", bce_value + bootstrap},
+                           {"bce", bce_value},
+                           {"bootstrap", bootstrap},
+                           {"batch_iou", iou},
+                           {"lr", config.learning_rate},
+                           {"seconds", seconds},
+                           {"points_per_s", static_cast<double>(batch.points.size(0) * batch.points.size(1)) / seconds},
+                           {"deformer_s", prediction.deformer_seconds},
+                           {"valid_per_point", prediction.deformer.mean_valid}};
+    log << line.dump() << "\n" << std::flush;
+    bar.advance(1, fmt::format("loss {:.4f} iou {:.3f} {:.2f} it/s", bce_value, iou, 1.0 / seconds));
+    if (step % config.checkpoint_every == 0) {
+      save_state(options.run_dir, step, model, adam, static_cast<int>(config.keep_checkpoints));
+      saved_step = step;
+    }
+  }
+  bar.finish();
+  if (saved_step != step) save_state(options.run_dir, step, model, adam, static_cast<int>(config.keep_checkpoints));
+  result.last_step = step;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+std::shared_ptr<ArticulatedOccupancyModel> load_trained_model(const std::string& run_dir,
+                                                              const CanonicalSkeleton& skeleton, int64_t* step) {
+  const auto config = TrainConfig::load(config_path(run_dir), TrainConfig{});
+  auto model = std::make_shared<ArticulatedOccupancyModel>(model_options(config, skeleton));
+  const auto loaded = load_state(run_dir, *model, nullptr);
+  FSKIN_CHECK(loaded.has_value(), "{}: no intact checkpoint (was the run trained?)", run_dir);
+  if (step) *step = *loaded;
+  model->train(false);
+  return model;
+}
+
+}  // namespace fskin

@@ -1,0 +1,40 @@
+#include "fskin/training/train_config.h"
+
+#include <gtest/gtest.h>
+
+#include "test_util.h"
+
+namespace fskin {
+namespace {
+
+TEST(TrainConfig, RoundTripsAndOverrides) {
+  TrainConfig c = TrainConfig::full();
+  c.set("steps=17");
+  c.set("method=snarf");
+  c.set("grid=[8,16,16]");
+  const auto back = TrainConfig::from_json(c.to_json(), "test", TrainConfig{});
+  EXPECT_EQ(back.steps, 17);
+  EXPECT_EQ(back.method, "snarf");
+  EXPECT_EQ(back.grid, (std::vector<int64_t>{8, 16, 16}));
+  EXPECT_EQ(back.occupancy_hidden_layers, 8);
+  EXPECT_EQ(back.to_json(), c.to_json());
+}
+
+TEST(TrainConfig, BadInputNamesTheProblem) {
+  TrainConfig c;
+  testing::expect_error([&] { c.set("stepz=3"); }, {"unknown config key 'stepz'"});
+  testing::expect_error([&] { c.set("method=nasa"); }, {"unknown method 'nasa'"});
+  testing::expect_error([&] { c.set("steps=\"many\""); }, {"--set steps", "wrong value type"});
+  testing::expect_error([&] { TrainConfig::from_json("{", "my.json", TrainConfig{}); }, {"my.json", "not valid JSON"});
+}
+
+TEST(TrainConfig, BootstrapLastsOneEpoch) {
+  TrainConfig c;
+  c.frames_per_batch = 8;
+  EXPECT_EQ(c.bootstrap_steps(100), 13);
+  c.bootstrap_epochs = 0;
+  EXPECT_EQ(c.bootstrap_steps(100), 0);
+}
+
+}  // namespace
+}  // namespace fskin

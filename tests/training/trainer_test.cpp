@@ -1,0 +1,157 @@
+#include "fskin/training/trainer.h"
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "fskin/training/checkpoint.h"
+#include "fskin/training/evaluation.h"
+#include "test_util.h"
+#include "training/synthetic_limb.h"
+
+namespace fskin {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::SyntheticLimb;
+
+std::vector<double> training_angles() {
+  std::vector<double> angles;
+  for (int i = 0; i < 12; ++i) angles.push_back(-1.2 + 2.4 * i / 11.0);
+  return angles;
+}
+
+TrainConfig tiny_config() {
+  TrainConfig c;
+  c.frames_per_batch = 2;
+  c.surface_points = 200;
+  c.uniform_points = 100;
+  c.learning_rate = 3e-3;
+  c.occupancy_hidden_dim = 32;
+  c.occupancy_hidden_layers = 3;
+  c.occupancy_skip_layers = {2};
+  c.pose_conditioning = false;
+  c.init_radius = 0.5;
+  c.skinning_hidden_dim = 32;
+  c.skinning_hidden_layers = 2;
+  c.grid = {8, 16, 16};
+  c.start_bones = "all";
+  return c;
+}
+
+std::vector<double> log_column(const fs::path& run, const std::string& key) {
+  std::ifstream in(run / "log.jsonl");
+  std::vector<double> values;
+  for (std::string line; std::getline(in, line);) values.push_back(nlohmann::json::parse(line).at(key).get<double>());
+  return values;
+}
+
+double mean(const std::vector<double>& v, size_t begin, size_t end) {
+  double s = 0;
+  for (size_t i = begin; i < end; ++i) s += v[i];
+  return s / static_cast<double>(end - begin);
+}
+
+TEST(Trainer, LossFallsAndIouRisesAboveChance) {
+  const SyntheticLimb limb(training_angles());
+  const auto run = testing::temp_dir("trainer_learns");
+  TrainConfig config = tiny_config();
+  config.steps = 400;
+  config.checkpoint_every = 100;
+  const auto result = train(config, limb, {run.string(), false, false, nullptr});
+  EXPECT_EQ(result.last_step, 400);
+  const auto bce = log_column(run, "bce");
+  ASSERT_EQ(bce.size(), 400u);
+  EXPECT_LT(mean(bce, 350, 400), 0.5 * mean(bce, 0, 50));
+
+  const auto frames = SyntheticLimb::frames({-1.0, 0.3, 1.1}, 2000, 2000);
+  auto model = load_trained_model(run.string(), limb.skeleton());
+  const auto metrics = evaluate(*model, frames, "test");
+  // Chance: calling everything inside scores the occupied fraction.
+  double occupied = 0;
+  for (const auto& f : frames) occupied += f.occupancy.slice(0, 0, 2000).mean().item<double>() / frames.size();
+  EXPECT_GT(metrics.mean_iou_bbox, occupied + 0.3) << metrics.table();
+  std::printf("%s", metrics.table().c_str());
+  EXPECT_GT(metrics.mean_iou_surf, 0.6) << metrics.table();
+  EXPECT_EQ(metrics.frames.size(), 3u);
+  EXPECT_NE(metrics.to_json().find("mean_iou_surf"), std::string::npos);
+}
+
+void expect_same_parameters(ArticulatedOccupancyModel& a, ArticulatedOccupancyModel& b) {
+  const auto pa = a.named_parameters(), pb = b.named_parameters();
+  ASSERT_EQ(pa.size(), pb.size());
+  for (const auto& item : pa) {
+    EXPECT_TRUE(torch::equal(item.value(), pb[item.key()])) << item.key();
+  }
+}
+
+TEST(Trainer, ResumeEqualsUninterrupted) {
+  const SyntheticLimb limb(training_angles());
+  TrainConfig config = tiny_config();
+  config.steps = 8;
+  config.checkpoint_every = 2;
+  config.pose_conditioning = true;
+  const auto whole = testing::temp_dir("trainer_whole");
+  train(config, limb, {whole.string(), false, false, nullptr});
+
+  const auto split = testing::temp_dir("trainer_split");
+  TrainConfig half = config;
+  half.steps = 3;  // stops between checkpoints: the exit checkpoint carries step 3
+  train(half, limb, {split.string(), false, false, nullptr});
+  const auto resumed = train(config, limb, {split.string(), true, false, nullptr});
+  EXPECT_EQ(resumed.first_step, 3);
+  EXPECT_EQ(resumed.last_step, 8);
+  EXPECT_EQ(log_column(split, "step").size(), 8u);
+
+  int64_t step_a = 0, step_b = 0;
+  auto a = load_trained_model(whole.string(), limb.skeleton(), &step_a);
+  auto b = load_trained_model(split.string(), limb.skeleton(), &step_b);
+  EXPECT_EQ(step_a, 8);
+  EXPECT_EQ(step_b, 8);
+  expect_same_parameters(*a, *b);
+  EXPECT_EQ(log_column(whole, "bce"), log_column(split, "bce"));
+}
+
+TEST(Trainer, TruncatedNewestCheckpointFallsBackToThePrevious) {
+  const SyntheticLimb limb(training_angles());
+  TrainConfig config = tiny_config();
+  config.steps = 6;
+  config.checkpoint_every = 3;
+  const auto reference = testing::temp_dir("trainer_reference");
+  train(config, limb, {reference.string(), false, false, nullptr});
+
+  const auto damaged = testing::temp_dir("trainer_damaged");
+  train(config, limb, {damaged.string(), false, false, nullptr});
+  const auto checkpoints = list_checkpoints(damaged.string());
+  ASSERT_EQ(checkpoints.size(), 2u);
+  fs::resize_file(checkpoints.front(), fs::file_size(checkpoints.front()) / 2);  // a kill mid-copy
+  int64_t step = 0;
+  load_trained_model(damaged.string(), limb.skeleton(), &step);
+  EXPECT_EQ(step, 3);
+  // Resuming redoes steps 4..6 and lands exactly where the intact run did.
+  const auto resumed = train(config, limb, {damaged.string(), true, false, nullptr});
+  EXPECT_EQ(resumed.first_step, 3);
+  auto a = load_trained_model(reference.string(), limb.skeleton());
+  auto b = load_trained_model(damaged.string(), limb.skeleton());
+  expect_same_parameters(*a, *b);
+}
+
+TEST(Trainer, StopSignalCheckpointsAndReturns) {
+  const SyntheticLimb limb(training_angles());
+  TrainConfig config = tiny_config();
+  config.steps = 5;
+  const auto run = testing::temp_dir("trainer_stop");
+  StopSignal stop;
+  StopSignal::request();
+  const auto result = train(config, limb, {run.string(), false, false, &stop});
+  EXPECT_TRUE(result.stopped);
+  EXPECT_EQ(result.last_step, 0);
+  EXPECT_EQ(list_checkpoints(run.string()).size(), 1u);
+  testing::expect_error([&] { load_trained_model((run / "nothing").string(), limb.skeleton()); }, {"nothing"});
+}
+
+}  // namespace
+}  // namespace fskin
