@@ -5,7 +5,8 @@ JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 # ccache with precompiled headers: these sloppiness flags let it reuse PCH units.
 export CCACHE_SLOPPINESS := pch_defines,time_macros,include_file_mtime,include_file_ctime
-export CCACHE_DIR ?= $(HOME)/.cache/fskin-ccache
+# Paths relative to the checkout, so every clone shares the cache.
+export CCACHE_BASEDIR ?= $(CURDIR)
 
 .PHONY: setup configure build test demo bench clean
 
