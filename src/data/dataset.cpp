@@ -13,9 +13,9 @@
 
 namespace fskin {
 
-Dataset Dataset::load(const std::string& dir, const std::string& split, bool with_meshes) {
-  namespace fs = std::filesystem;
-  const std::string manifest_path = (fs::path(dir) / "manifest.json").string();
+namespace {
+nlohmann::json read_manifest(const std::string& dir) {
+  const std::string manifest_path = (std::filesystem::path(dir) / "manifest.json").string();
   nlohmann::json manifest;
   try {
     manifest = nlohmann::json::parse(read_file(manifest_path));
@@ -24,13 +24,38 @@ Dataset Dataset::load(const std::string& dir, const std::string& split, bool wit
   }
   FSKIN_CHECK(manifest.value("format", "") == "fskin-dataset", "{}: not an fskin dataset manifest",
               manifest_path);
+  FSKIN_CHECK(manifest.value("format_version", 0) == kDatasetFormatVersion,
+              "{}: dataset format {} (this fskin reads format {}); rebuild it with `fskin data build`",
+              manifest_path, manifest.value("format_version", 0), kDatasetFormatVersion);
   FSKIN_CHECK(manifest.value("complete", false),
               "{}: the build did not finish; re-run `fskin data build` to complete it", dir);
-  FSKIN_CHECK(manifest.contains("splits") && manifest["splits"].contains(split),
-              "{}: unknown split '{}' (train, val, test_within, test_ood)", manifest_path, split);
+  return manifest;
+}
+}  // namespace
+
+Dataset Dataset::load_canonical(const std::string& dir) {
+  namespace fs = std::filesystem;
+  const auto manifest = read_manifest(dir);
   Dataset dataset;
-  dataset.split_ = split;
   dataset.joint_names_ = manifest["joint_names"].get<std::vector<std::string>>();
+  dataset.parents_ = manifest["parents"].get<std::vector<int64_t>>();
+  FSKIN_CHECK(dataset.parents_.size() == dataset.joint_names_.size(), "{}/manifest.json: {} parents for {} joints",
+              dir, dataset.parents_.size(), dataset.joint_names_.size());
+  const std::string canonical_path = (fs::path(dir) / "canonical.npz").string();
+  dataset.canonical_ = DatasetFrame::load(canonical_path, true);
+  FSKIN_CHECK(dataset.canonical_.joints.defined() &&
+                  dataset.canonical_.joints.size(0) == static_cast<int64_t>(dataset.parents_.size()),
+              "{}: no canonical joints for the manifest's {} joints", canonical_path, dataset.parents_.size());
+  return dataset;
+}
+
+Dataset Dataset::load(const std::string& dir, const std::string& split, bool with_meshes) {
+  namespace fs = std::filesystem;
+  const auto manifest = read_manifest(dir);
+  FSKIN_CHECK(manifest.contains("splits") && manifest["splits"].contains(split),
+              "{}/manifest.json: unknown split '{}' (train, val, test_within, test_ood)", dir, split);
+  Dataset dataset = load_canonical(dir);
+  dataset.split_ = split;
   const auto files = manifest["splits"][split].get<std::vector<std::string>>();
   FSKIN_CHECK(!files.empty(), "{}: split '{}' has no frames", dir, split);
   ProgressBar progress("loading " + split, static_cast<int64_t>(files.size()), files.size() > 20);
@@ -42,7 +67,6 @@ Dataset Dataset::load(const std::string& dir, const std::string& split, bool wit
                 dataset.joint_names_.size());
     progress.advance();
   }
-  dataset.canonical_ = DatasetFrame::load((fs::path(dir) / "canonical.npz").string(), true);
   return dataset;
 }
 

@@ -1,4 +1,5 @@
 #include "fskin/data/dataset_builder.h"
+#include "fskin/data/dataset.h"
 
 #include <torch/torch.h>
 
@@ -111,13 +112,14 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
 
   nlohmann::json manifest = {
       {"format", "fskin-dataset"},
-      {"format_version", 1},
+      {"format_version", kDatasetFormatVersion},
       {"fskin_version", FSKIN_VERSION},
       {"model", options.model_source},
       {"poses", options.poses_source},
       {"ood_poses", options.ood_poses_source},
       {"num_joints", model.num_joints()},
       {"joint_names", names},
+      {"parents", model.data().parents},
       {"num_vertices", model.num_vertices()},
       {"num_faces", model.data().faces.size(0)},
       {"canonical_pose", options.canonical_pose},
@@ -179,6 +181,7 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
     frame.box = box_tensor(canonical_box);
     frame.vertices = canonical_mesh.vertices;
     frame.faces = canonical_mesh.faces;
+    frame.joints = canonical.joints[0];
     frame.save(canonical_path.string());
   }
 

@@ -24,6 +24,7 @@ void DatasetFrame::validate(const std::string& context) const {
     expect_shape(vertices, {-1, 3}, context + ": vertices");
     expect_shape(faces, {-1, 3}, context + ": faces");
   }
+  if (joints.defined()) expect_shape(joints, {J, 3}, context + ": joints");
 }
 
 void DatasetFrame::save(const std::string& path) const {
@@ -41,6 +42,7 @@ void DatasetFrame::save(const std::string& path) const {
     npz.add("vertices", vertices.to(torch::kFloat32).contiguous());
     npz.add("faces", faces.to(torch::kInt64).contiguous());
   }
+  if (joints.defined()) npz.add("joints", joints.to(torch::kFloat32).contiguous());
   // Stored, not deflated: float point clouds barely compress (-25 %) and deflate
   // took longer than posing, sampling and the inside test together.
   npz.save(path, /*compress=*/false);
@@ -63,6 +65,7 @@ DatasetFrame DatasetFrame::load(const std::string& path, bool with_mesh) {
     frame.vertices = npz.tensor("vertices");
     frame.faces = npz.tensor("faces");
   }
+  if (npz.contains("joints")) frame.joints = npz.tensor("joints");
   frame.validate(path);
   return frame;
 }

@@ -1,4 +1,5 @@
 #include "fskin/data/stick2d.h"
+#include "fskin/data/dataset.h"
 
 #include <torch/torch.h>
 
@@ -365,10 +366,11 @@ int64_t build_stick_dataset(const StickOptions& stick, const StickDatasetOptions
     hi[a] = centre + half;
   }
   canonical.box = torch::tensor({lo[0], lo[1], 0.0, hi[0], hi[1], 0.0}, torch::kFloat32).reshape({2, 3});
+  canonical.joints = skeleton.rest_joints;
   canonical.save((fs::path(options.out_dir) / "canonical.npz").string());
   const nlohmann::json manifest = {
       {"format", "fskin-dataset"},
-      {"format_version", 1},
+      {"format_version", kDatasetFormatVersion},
       {"fskin_version", FSKIN_VERSION},
       {"kind", "stick2d"},
       {"stick",
@@ -381,6 +383,7 @@ int64_t build_stick_dataset(const StickOptions& stick, const StickDatasetOptions
         {"extrapolation_degrees", kStickExtrapolationDegrees}}},
       {"num_joints", 2},
       {"joint_names", skeleton.joint_names},
+      {"parents", skeleton.parents},
       {"canonical_pose", "rest"},
       {"seed", options.seed},
       {"sampling",

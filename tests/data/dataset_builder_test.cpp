@@ -13,6 +13,7 @@
 #include "fskin/data/dataset.h"
 #include "fskin/data/inside_test.h"
 #include "fskin/data/pose_generators.h"
+#include "fskin/skeleton/lbs.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/version.h"
 #include "test_util.h"
@@ -111,6 +112,13 @@ TEST_F(DatasetBuilder, WritesFramesAndManifestWithDisjointSplits) {
   const auto canonical = DatasetFrame::load((dir / "canonical.npz").string());
   EXPECT_TRUE(torch::allclose(frame.bone_transforms.matmul(canonical.bone_transforms_rest),
                               frame.bone_transforms_rest, 1e-5, 1e-5));
+  // The skeleton travels with the data: parents and the canonical joints (the
+  // rest joints moved by their own rest -> canonical transform).
+  EXPECT_EQ(manifest["parents"].get<std::vector<int64_t>>(), f.model.data().parents);
+  const auto rest_joints = f.model.skeleton().rest_joints;
+  const auto moved = transform_points(canonical.bone_transforms_rest, rest_joints);
+  ASSERT_TRUE(canonical.joints.defined());
+  EXPECT_TRUE(torch::allclose(canonical.joints, moved, 1e-5, 1e-5));
   // About half of the near-surface points are inside; fewer of the box points.
   const double surface = frame.surface_occupancy().to(torch::kFloat64).mean().item<double>();
   EXPECT_NEAR(surface, 0.5, 0.1);

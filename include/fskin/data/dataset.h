@@ -11,6 +11,9 @@
 
 namespace fskin {
 
+// Version 2 added the skeleton (manifest "parents", canonical.npz "joints").
+inline constexpr int kDatasetFormatVersion = 2;
+
 struct DatasetBatch {
   torch::Tensor points;           // [B, N, 3] float32, posed space
   torch::Tensor occupancy;        // [B, N] float32 (0 or 1), ready for BCE
@@ -26,12 +29,16 @@ class Dataset {
   // fskin::Error naming the directory when the manifest is missing, the build
   // incomplete or the split unknown.
   static Dataset load(const std::string& dir, const std::string& split, bool with_meshes = false);
+  // Only the manifest's skeleton and the canonical frame (no split, size() 0):
+  // what models need to be rebuilt.
+  static Dataset load_canonical(const std::string& dir);
 
   int64_t size() const { return static_cast<int64_t>(frames_.size()); }
   const DatasetFrame& frame(int64_t index) const;
   const std::string& split() const { return split_; }
   const std::vector<std::string>& joint_names() const { return joint_names_; }
-  // The canonical pose's mesh, bone transforms (rest -> canonical) and box.
+  const std::vector<int64_t>& parents() const { return parents_; }  // parents[0] == -1
+  // The canonical pose's mesh, joints, bone transforms (rest -> canonical) and box.
   const DatasetFrame& canonical() const { return canonical_; }
 
   // `frames` distinct frames (with repetition only when the split is smaller),
@@ -44,6 +51,7 @@ class Dataset {
  private:
   std::string split_;
   std::vector<std::string> joint_names_;
+  std::vector<int64_t> parents_;
   std::vector<DatasetFrame> frames_;
   DatasetFrame canonical_;
 };

@@ -14,6 +14,8 @@
 //   box                  (2, 3)    float32  min / max corner of the uniform samples' box
 //   vertices             (V, 3)    float32  the posed mesh (optional)
 //   faces                (F, 3)    int64    (with vertices)
+//   joints               (J, 3)    float32  joint positions (canonical.npz only:
+//                                           the skeleton the bootstrap losses need)
 #include <torch/types.h>
 
 #include <string>
@@ -26,6 +28,7 @@ struct DatasetFrame {
   torch::Tensor bone_transforms, bone_transforms_rest, pose, trans, box;
   torch::Tensor vertices, faces;  // undefined when loaded without the mesh or when
                                   // the frame has none (the 2D stick set)
+  torch::Tensor joints;           // undefined except in canonical.npz
 
   int64_t num_points() const { return points.defined() ? points.size(0) : 0; }
   // The uniform (IoU_bbox) and near-surface (IoU_surf) halves.
