@@ -74,7 +74,7 @@ OccupancyNetworkImpl::OccupancyNetworkImpl(const OccupancyNetworkOptions& option
 torch::Tensor OccupancyNetworkImpl::forward(const torch::Tensor& x, const torch::Tensor& pose) {
   FSKIN_CHECK(x.dim() >= 2 && x.size(-1) == 3, "occupancy network: points must be [B, ..., 3], got {}",
               shape_string(x.sizes()));
-  const auto encoded = positional_encoding(x, options_.encoding_frequencies);
+  const auto encoded = positional_encoding(options_.input.apply(x), options_.encoding_frequencies);
   if (options_.pose_dim == 0) return mlp_->forward(encoded).squeeze(-1);
   FSKIN_CHECK(pose.defined() && pose.dim() == 2 && pose.size(0) == x.size(0) &&
                   pose.size(1) == options_.pose_dim,

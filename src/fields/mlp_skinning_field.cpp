@@ -15,7 +15,7 @@ MlpSkinningField::MlpSkinningField(const MlpSkinningFieldOptions& options) : opt
 }
 
 torch::Tensor MlpSkinningField::weights(const torch::Tensor& x_canonical) {
-  const auto logits = network_->forward(x_canonical.to(network_->parameters()[0].dtype()));
+  const auto logits = network_->forward(options_.input.apply(x_canonical.to(network_->parameters()[0].dtype())));
   return torch::softmax(logits * options_.softmax_scale, -1);
 }
 

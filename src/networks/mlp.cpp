@@ -73,6 +73,7 @@ MlpImpl::MlpImpl(const MlpOptions& o) : options_(o) {
       }
       layer->reset(w, b);
     }
+    if (o.zero_output_init && l + 1 == num_linear) layer->reset(torch::zeros({out, in}), torch::zeros({out}));
     layers_.push_back(layer);
   }
 }

@@ -9,6 +9,7 @@
 
 #include <vector>
 
+#include "fskin/networks/input_normalization.h"
 #include "fskin/networks/mlp.h"
 
 namespace fskin {
@@ -24,7 +25,10 @@ struct OccupancyNetworkOptions {
   int64_t pose_layer = 4;
   // NeRF encoding frequencies (0: raw coordinates).
   int64_t encoding_frequencies = 0;
-  // Geometric init: initially occupied inside a sphere of this radius (metres).
+  // Canonical points -> network coordinates (applied before the encoding).
+  InputNormalization input;
+  // Geometric init: initially occupied inside a sphere of this radius (in
+  // normalised coordinates) around `input.centre`.
   bool geometric_init = true;
   double init_radius = 1.0;
 

@@ -1,6 +1,7 @@
 #pragma once
 // SNARF's skinning field: an MLP 3 -> 4 x 128 -> J, weights = softmax(20 * logits).
 #include "fskin/fields/skinning_field.h"
+#include "fskin/networks/input_normalization.h"
 #include "fskin/networks/mlp.h"
 
 namespace fskin {
@@ -10,6 +11,7 @@ struct MlpSkinningFieldOptions {
   int64_t hidden_dim = 128;
   int64_t hidden_layers = 4;
   double softmax_scale = 20.0;  // sharpens the softmax (reference value)
+  InputNormalization input;     // canonical points -> network coordinates
 };
 
 class MlpSkinningField : public SkinningField {

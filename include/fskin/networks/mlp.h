@@ -26,6 +26,9 @@ struct MlpOptions {
   bool geometric_init = false;
   double geometric_init_radius = 1.0;
   double softplus_beta = 100.0;
+  // Zero last layer (weights and bias): the network starts as the zero map
+  // (displacement fields that start as "no displacement").
+  bool zero_output_init = false;
 };
 
 // A linear layer with weight normalisation (Salimans & Kingma 2016).
