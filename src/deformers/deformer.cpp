@@ -1,8 +1,5 @@
 #include "fskin/deformers/deformer.h"
 
-#include <torch/cuda.h>
-
-#include <chrono>
 #include <functional>
 
 #include "fskin/core/error.h"
@@ -10,24 +7,11 @@
 #include "fskin/ops/filter_duplicate_roots.h"
 #include "fskin/ops/implicit_gradient.h"
 #include "fskin/skeleton/lbs.h"
+#include "fskin/util/stopwatch.h"
 
 namespace fskin {
 
 namespace {
-
-// Wall time of a stage; waits for queued GPU work so the split is honest.
-class StageTimer {
- public:
-  explicit StageTimer(bool cuda) : cuda_(cuda) { start_ = std::chrono::steady_clock::now(); }
-  double seconds() {
-    if (cuda_) torch::cuda::synchronize();
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  }
-
- private:
-  bool cuda_;
-  std::chrono::steady_clock::time_point start_;
-};
 
 // Undoes prepare() however forward() leaves.
 struct PreparedPose {
@@ -77,10 +61,10 @@ DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tens
 
   DeformerOutput out;
   DeformerStats& st = out.stats;
-  StageTimer precompute(cuda);
+  Stopwatch precompute(cuda);
   prepare(bones_x);
   PreparedPose prepared{[this] { release(); }};
-  st.precompute_seconds = precompute.seconds();
+  st.precompute_seconds = precompute.elapsed();
 
   // Without gradients the chunks go straight into preallocated outputs, so 1e7
   // points cost the output and one chunk's temporaries, not twice the output.
@@ -92,26 +76,26 @@ DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tens
   for (int64_t begin = 0; begin < N; begin += options_.chunk_points) {
     const int64_t n = std::min(options_.chunk_points, N - begin);
     const auto chunk = x_posed.narrow(1, begin, n);
-    StageTimer search_timer(cuda);
+    Stopwatch search_timer(cuda);
     SearchResult found = [&] {
       torch::NoGradGuard no_grad;
       return search(chunk.detach(), start_inverses,
                     wants_grad && options_.gradient == GradientMode::Approximate);
     }();
-    st.search_seconds += search_timer.seconds();
+    st.search_seconds += search_timer.elapsed();
     iteration_sum += found.iterations.sum().item<double>();
 
-    StageTimer filter_timer(cuda);
+    Stopwatch filter_timer(cuda);
     if (options_.remove_duplicates) found.valid = filter_duplicate_roots(found.x, found.valid, options_.duplicate_distance);
-    st.filter_seconds += filter_timer.seconds();
+    st.filter_seconds += filter_timer.elapsed();
 
-    StageTimer gradient_timer(cuda);
+    Stopwatch gradient_timer(cuda);
     if (wants_grad) {
       xs.push_back(attach_gradients(found, chunk));
     } else {
       out.x_canonical.narrow(1, begin, n).copy_(found.x.masked_fill_(found.valid.logical_not().unsqueeze(-1), 0));
     }
-    st.gradient_seconds += gradient_timer.seconds();
+    st.gradient_seconds += gradient_timer.elapsed();
     out.valid.narrow(1, begin, n).copy_(found.valid);
   }
   if (wants_grad) {
