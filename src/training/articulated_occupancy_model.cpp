@@ -1,31 +1,20 @@
 #include "fskin/training/articulated_occupancy_model.h"
 
-#include <chrono>
-
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "fskin/deformers/fast_snarf_deformer.h"
 #include "fskin/deformers/snarf_deformer.h"
 #include "fskin/fields/voxel_skinning_field.h"
+#include "fskin/training/bootstrap_losses.h"
 #include "fskin/training/occupancy_aggregation.h"
+#include "fskin/util/stopwatch.h"
 
 namespace fskin {
 
-Method parse_method(const std::string& name) {
-  if (name == "fast-snarf") return Method::FastSnarf;
-  if (name == "snarf") return Method::Snarf;
-  fail("unknown method '{}' (expected fast-snarf or snarf)", name);
-}
-
-std::string method_name(Method method) { return method == Method::FastSnarf ? "fast-snarf" : "snarf"; }
-
-torch::Tensor pose_condition(const torch::Tensor& pose) {
-  expect_shape(pose, {-1, -1, 3}, "pose_condition: pose");
-  return pose.slice(1, 1).flatten(1) / M_PI;
-}
-
 ArticulatedOccupancyModel::ArticulatedOccupancyModel(const ArticulatedModelOptions& options)
     : options_(options) {
+  FSKIN_CHECK(options.method == Method::FastSnarf || options.method == Method::Snarf,
+              "ArticulatedOccupancyModel: method {} is not a forward-skinning method", method_name(options.method));
   occupancy_ = register_module("occupancy", OccupancyNetwork(options.occupancy));
   skinning_ = register_module("skinning", std::make_shared<MlpSkinningField>(options.skinning));
   if (options.method == Method::FastSnarf) {
@@ -37,22 +26,14 @@ ArticulatedOccupancyModel::ArticulatedOccupancyModel(const ArticulatedModelOptio
   }
 }
 
-namespace {
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-}  // namespace
-
 OccupancyPrediction ArticulatedOccupancyModel::predict(const torch::Tensor& points, const torch::Tensor& bones,
                                                        const torch::Tensor& pose, Aggregation aggregation) {
   OccupancyPrediction out;
-  auto start = Clock::now();
+  Stopwatch watch(points.is_cuda());
   auto found = deformer().forward(points, bones);
   out.deformer = found.stats;
-  out.deformer_seconds = seconds_since(start);
+  out.deformer_seconds = watch.lap();
 
-  start = Clock::now();
   // The shape network runs only on valid candidates (typically ~1 of the I
   // slots); invalid slots keep a placeholder the aggregation masks out.
   const int64_t B = points.size(0), slots = points.size(1) * found.valid.size(2);
@@ -67,18 +48,23 @@ OccupancyPrediction ArticulatedOccupancyModel::predict(const torch::Tensor& poin
   auto logits = torch::full({B * slots}, -kMaxOccupancyLogit, points.options());
   if (!values.empty()) logits = logits.index_put({torch::cat(indices)}, torch::cat(values));
   logits = logits.view({B, points.size(1), found.valid.size(2)});
-  out.shape_seconds = seconds_since(start);
+  out.shape_seconds = watch.lap();
 
-  start = Clock::now();
   out.logits = aggregation == Aggregation::Soft ? soft_max_occupancy(logits, found.valid)
                                                 : hard_max_occupancy(logits, found.valid);
-  out.aggregation_seconds = seconds_since(start);
+  out.aggregation_seconds = watch.lap();
   return out;
 }
 
 torch::Tensor ArticulatedOccupancyModel::canonical_logits(const torch::Tensor& x_canonical, const torch::Tensor& pose) {
   if (options_.occupancy.pose_dim == 0) return occupancy_->forward(x_canonical);
   return occupancy_->forward(x_canonical, pose_condition(pose).to(x_canonical.dtype()));
+}
+
+torch::Tensor ArticulatedOccupancyModel::bootstrap_loss(const BootstrapInputs& inputs) {
+  FSKIN_CHECK(inputs.skeleton != nullptr, "bootstrap_loss: no skeleton");
+  return bone_occupancy_loss(*this, inputs.bone_points, inputs.pose) +
+         inputs.joint_weight * joint_weight_loss(deformer().field(), *inputs.skeleton);
 }
 
 torch::Tensor ArticulatedOccupancyModel::skinning_weights(const torch::Tensor& x_canonical) {

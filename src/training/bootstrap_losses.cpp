@@ -23,16 +23,16 @@ torch::Tensor sample_bone_points(const CanonicalSkeleton& skeleton, int64_t per_
   return (head + t * (tail - head)).view({-1, 3});
 }
 
-torch::Tensor bone_occupancy_loss(ArticulatedOccupancyModel& model, const torch::Tensor& bone_points,
+torch::Tensor bone_occupancy_loss(OccupancyModel& model, const torch::Tensor& bone_points,
                                   const torch::Tensor& pose) {
   const auto x = bone_points.unsqueeze(0).expand({pose.size(0), bone_points.size(0), 3});
   const auto logits = model.canonical_logits(x, pose);
   return torch::binary_cross_entropy_with_logits(logits, torch::ones_like(logits));
 }
 
-torch::Tensor joint_weight_loss(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton) {
+torch::Tensor joint_weight_loss(SkinningField& field, const CanonicalSkeleton& skeleton) {
   const auto joints = skeleton.joints.to(torch::kFloat32);
-  const auto weights = model.skinning_weights(joints);  // [J, J]
+  const auto weights = field.weights(joints);  // [J, J]
   return torch::mse_loss(weights, torch::eye(joints.size(0)));
 }
 

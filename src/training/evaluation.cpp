@@ -14,7 +14,7 @@ double intersection_over_union(const torch::Tensor& predicted, const torch::Tens
   return uni == 0 ? 1.0 : (predicted & truth).sum().item<double>() / uni;
 }
 
-EvaluationResult evaluate(ArticulatedOccupancyModel& model, const std::vector<OccupancyFrame>& frames,
+EvaluationResult evaluate(OccupancyModel& model, const std::vector<OccupancyFrame>& frames,
                           const std::string& split, int64_t chunk_points, bool progress) {
   FSKIN_CHECK(chunk_points >= 1, "evaluate: chunk_points must be >= 1");
   torch::NoGradGuard no_grad;

@@ -15,7 +15,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TrainConfig, data, method, seed, steps, frames_per_batch, surface_points, uniform_points, learning_rate, grad_clip,
     bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, checkpoint_every, keep_checkpoints,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
-    pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, grid, start_bones,
+    pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, grid, part_hidden_dim, part_hidden_layers, start_bones,
     max_iterations, eval_chunk_points)
 
 TrainConfig TrainConfig::full() {
@@ -91,6 +91,7 @@ void TrainConfig::validate() const {
   FSKIN_CHECK(max_iterations >= 0 && eval_chunk_points >= 1, "config: max_iterations and eval_chunk_points out of range");
   FSKIN_CHECK(start_bones == "smpl-training" || start_bones == "all" || start_bones.rfind("automatic:", 0) == 0,
               "config: start_bones '{}' must be smpl-training, all or automatic:K", start_bones);
+  FSKIN_CHECK(part_hidden_dim >= 1 && part_hidden_layers >= 1, "config: part_hidden_dim and part_hidden_layers must be >= 1");
 }
 
 int64_t TrainConfig::bootstrap_steps(int64_t frames) const {
@@ -127,12 +128,14 @@ ArticulatedModelOptions model_options(const TrainConfig& config, const Canonical
   occ.pose_layer = config.pose_layer;
   occ.encoding_frequencies = config.encoding_frequencies;
   occ.init_radius = config.init_radius;
+  occ.input = InputNormalization::around(skeleton.extent);
   o.skinning.num_bones = num_bones;
   o.skinning.hidden_dim = config.skinning_hidden_dim;
   o.skinning.hidden_layers = config.skinning_hidden_layers;
+  o.skinning.input = occ.input;
   o.box = VoxelBox::around(skeleton.extent.to(torch::kFloat64),
                            GridShape{config.grid[0], config.grid[1], config.grid[2]});
-  o.deformer = o.method == Method::FastSnarf ? DeformerOptions::fast_snarf() : DeformerOptions::snarf();
+  o.deformer = o.method == Method::Snarf ? DeformerOptions::snarf() : DeformerOptions::fast_snarf();
   if (config.max_iterations > 0) o.deformer.max_iterations = static_cast<int>(config.max_iterations);
   o.deformer.start_bones = resolve_start_bones(config.start_bones, skeleton);
   return o;

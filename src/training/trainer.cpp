@@ -13,6 +13,7 @@
 #include "fskin/core/error.h"
 #include "fskin/training/bootstrap_losses.h"
 #include "fskin/training/checkpoint.h"
+#include "fskin/training/model_factory.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/util/progress.h"
 
@@ -33,7 +34,7 @@ namespace {
 std::string config_path(const std::string& run_dir) { return (fs::path(run_dir) / "config.json").string(); }
 std::string log_path(const std::string& run_dir) { return (fs::path(run_dir) / "log.jsonl").string(); }
 
-void save_state(const std::string& run_dir, int64_t step, ArticulatedOccupancyModel& model,
+void save_state(const std::string& run_dir, int64_t step, OccupancyModel& model,
                 torch::optim::Optimizer& optimizer, int keep) {
   save_checkpoint(run_dir, step,
                   [&](torch::serialize::OutputArchive& archive) {
@@ -47,7 +48,7 @@ void save_state(const std::string& run_dir, int64_t step, ArticulatedOccupancyMo
                   keep);
 }
 
-std::optional<int64_t> load_state(const std::string& run_dir, ArticulatedOccupancyModel& model,
+std::optional<int64_t> load_state(const std::string& run_dir, OccupancyModel& model,
                                   torch::optim::Optimizer* optimizer) {
   int64_t step = 0;
   const auto path = load_latest_checkpoint(run_dir, [&](torch::serialize::InputArchive& archive) {
@@ -100,9 +101,14 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
 
   torch::manual_seed(config.seed);
   const auto& skeleton = source.skeleton();
-  ArticulatedOccupancyModel model(model_options(config, skeleton));
+  const auto model_ptr = make_model(config, skeleton);
+  OccupancyModel& model = *model_ptr;
   model.train(true);
-  torch::optim::Adam adam(model.parameters(), torch::optim::AdamOptions(config.learning_rate));
+  std::vector<torch::optim::OptimizerParamGroup> groups;
+  for (auto& group : model.parameter_groups(config.learning_rate)) {
+    groups.emplace_back(group.parameters, std::make_unique<torch::optim::AdamOptions>(group.learning_rate));
+  }
+  torch::optim::Adam adam(std::move(groups), torch::optim::AdamOptions(config.learning_rate));
 
   int64_t step = 0;
   if (options.resume) {
@@ -139,11 +145,13 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
     double bootstrap = 0;
     if (step < bootstrap_steps) {
       auto generator = at::make_generator<at::CPUGeneratorImpl>(seed);
-      const auto bone_points = sample_bone_points(skeleton, config.bone_points_per_bone, generator);
-      const auto extra = bone_occupancy_loss(model, bone_points, batch.pose) +
-                         config.joint_weight_loss_weight * joint_weight_loss(model, skeleton);
-      bootstrap = extra.item<double>();
-      loss = loss + extra;
+      const BootstrapInputs inputs{&skeleton, sample_bone_points(skeleton, config.bone_points_per_bone, generator),
+                                   batch.pose, config.joint_weight_loss_weight};
+      const auto extra = model.bootstrap_loss(inputs);
+      if (extra.defined()) {
+        bootstrap = extra.item<double>();
+        loss = loss + extra;
+      }
     }
     adam.zero_grad();
     loss.backward();
@@ -180,10 +188,10 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
   return result;
 }
 
-std::shared_ptr<ArticulatedOccupancyModel> load_trained_model(const std::string& run_dir,
-                                                              const CanonicalSkeleton& skeleton, int64_t* step) {
+std::shared_ptr<OccupancyModel> load_trained_model(const std::string& run_dir, const CanonicalSkeleton& skeleton,
+                                                   int64_t* step) {
   const auto config = TrainConfig::load(config_path(run_dir), TrainConfig{});
-  auto model = std::make_shared<ArticulatedOccupancyModel>(model_options(config, skeleton));
+  auto model = make_model(config, skeleton);
   const auto loaded = load_state(run_dir, *model, nullptr);
   FSKIN_CHECK(loaded.has_value(), "{}: no intact checkpoint (was the run trained?)", run_dir);
   if (step) *step = *loaded;

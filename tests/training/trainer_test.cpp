@@ -11,49 +11,17 @@
 #include "fskin/training/evaluation.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
+#include "training/tiny_training.h"
 
 namespace fskin {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::log_column;
+using testing::mean;
 using testing::SyntheticLimb;
-
-std::vector<double> training_angles() {
-  std::vector<double> angles;
-  for (int i = 0; i < 12; ++i) angles.push_back(-1.2 + 2.4 * i / 11.0);
-  return angles;
-}
-
-TrainConfig tiny_config() {
-  TrainConfig c;
-  c.frames_per_batch = 2;
-  c.surface_points = 200;
-  c.uniform_points = 100;
-  c.learning_rate = 3e-3;
-  c.occupancy_hidden_dim = 32;
-  c.occupancy_hidden_layers = 3;
-  c.occupancy_skip_layers = {2};
-  c.pose_conditioning = false;
-  c.init_radius = 0.5;
-  c.skinning_hidden_dim = 32;
-  c.skinning_hidden_layers = 2;
-  c.grid = {8, 16, 16};
-  c.start_bones = "all";
-  return c;
-}
-
-std::vector<double> log_column(const fs::path& run, const std::string& key) {
-  std::ifstream in(run / "log.jsonl");
-  std::vector<double> values;
-  for (std::string line; std::getline(in, line);) values.push_back(nlohmann::json::parse(line).at(key).get<double>());
-  return values;
-}
-
-double mean(const std::vector<double>& v, size_t begin, size_t end) {
-  double s = 0;
-  for (size_t i = begin; i < end; ++i) s += v[i];
-  return s / static_cast<double>(end - begin);
-}
+using testing::tiny_config;
+using testing::training_angles;
 
 TEST(Trainer, LossFallsAndIouRisesAboveChance) {
   const SyntheticLimb limb(training_angles());
@@ -80,7 +48,7 @@ TEST(Trainer, LossFallsAndIouRisesAboveChance) {
   EXPECT_NE(metrics.to_json().find("mean_iou_surf"), std::string::npos);
 }
 
-void expect_same_parameters(ArticulatedOccupancyModel& a, ArticulatedOccupancyModel& b) {
+void expect_same_parameters(OccupancyModel& a, OccupancyModel& b) {
   const auto pa = a.named_parameters(), pb = b.named_parameters();
   ASSERT_EQ(pa.size(), pb.size());
   for (const auto& item : pa) {

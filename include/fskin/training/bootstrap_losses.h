@@ -6,8 +6,9 @@
 #include <ATen/core/Generator.h>
 #include <torch/types.h>
 
-#include "fskin/training/articulated_occupancy_model.h"
+#include "fskin/fields/skinning_field.h"
 #include "fskin/training/batch_source.h"
+#include "fskin/training/occupancy_model.h"
 
 namespace fskin {
 
@@ -18,11 +19,11 @@ torch::Tensor sample_bone_points(const CanonicalSkeleton& skeleton, int64_t per_
 
 // BCE of the canonical occupancy at bone points against 1, with the batch's
 // poses as condition (pose [B, J, 3]).
-torch::Tensor bone_occupancy_loss(ArticulatedOccupancyModel& model, const torch::Tensor& bone_points,
+torch::Tensor bone_occupancy_loss(OccupancyModel& model, const torch::Tensor& bone_points,
                                   const torch::Tensor& pose);
 
-// MSE between the deformer's skinning weights at the canonical joints and
-// one-hot on each joint's own bone.
-torch::Tensor joint_weight_loss(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton);
+// MSE between the skinning weights at the canonical joints and one-hot on
+// each joint's own bone.
+torch::Tensor joint_weight_loss(SkinningField& field, const CanonicalSkeleton& skeleton);
 
 }  // namespace fskin

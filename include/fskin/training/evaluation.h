@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "fskin/training/articulated_occupancy_model.h"
+#include "fskin/training/occupancy_model.h"
 #include "fskin/training/batch_source.h"
 
 namespace fskin {
@@ -36,7 +36,7 @@ double intersection_over_union(const torch::Tensor& predicted, const torch::Tens
 
 // Evaluates `model` (put in inference mode) on the frames, chunk_points posed
 // points at a time.
-EvaluationResult evaluate(ArticulatedOccupancyModel& model, const std::vector<OccupancyFrame>& frames,
+EvaluationResult evaluate(OccupancyModel& model, const std::vector<OccupancyFrame>& frames,
                           const std::string& split, int64_t chunk_points = 20000, bool progress = false);
 
 }  // namespace fskin

@@ -14,7 +14,7 @@ namespace fskin {
 
 struct TrainConfig {
   std::string data;  // dataset directory the run trains on (recorded for evaluation)
-  std::string method = "fast-snarf";
+  std::string method = "fast-snarf";  // method.h: fast-snarf, snarf, pose-onet, back-lbs, back-d, piecewise
   uint64_t seed = 0;
   int64_t steps = 2000;
   // Batch: frames x (near-surface + uniform) points (papers: 8 x (2000 + 250)).
@@ -42,6 +42,9 @@ struct TrainConfig {
   int64_t skinning_hidden_dim = 128;
   int64_t skinning_hidden_layers = 4;
   std::vector<int64_t> grid{16, 64, 64};
+  // Piecewise baseline: one MLP per bone.
+  int64_t part_hidden_dim = 64;
+  int64_t part_hidden_layers = 3;
   // "smpl-training" (the papers' 9 bones), "all", or "automatic:K".
   std::string start_bones = "smpl-training";
   int64_t max_iterations = 0;  // 0: the method's reference value

@@ -9,8 +9,8 @@
 #include <memory>
 #include <string>
 
-#include "fskin/training/articulated_occupancy_model.h"
 #include "fskin/training/batch_source.h"
+#include "fskin/training/occupancy_model.h"
 #include "fskin/training/stop_signal.h"
 #include "fskin/training/train_config.h"
 
@@ -37,8 +37,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
 
 // The model of a run: config.json in run_dir, weights from its newest intact
 // checkpoint (throws fskin::Error naming run_dir if there is none).
-std::shared_ptr<ArticulatedOccupancyModel> load_trained_model(const std::string& run_dir,
-                                                              const CanonicalSkeleton& skeleton,
-                                                              int64_t* step = nullptr);
+std::shared_ptr<OccupancyModel> load_trained_model(const std::string& run_dir, const CanonicalSkeleton& skeleton,
+                                                   int64_t* step = nullptr);
 
 }  // namespace fskin
