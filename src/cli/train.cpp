@@ -6,6 +6,7 @@
 #include "fskin/core/error.h"
 #include "fskin/data/dataset.h"
 #include "fskin/training/dataset_source.h"
+#include "fskin/training/method.h"
 #include "fskin/training/stop_signal.h"
 #include "fskin/training/trainer.h"
 
@@ -19,9 +20,10 @@ void register_train(CLI::App& app) {
     bool resume = false, full = false, quiet = false;
   };
   auto opt = std::make_shared<Options>();
-  auto* cmd = app.add_subcommand("train", "Train an articulated occupancy model (SNARF / Fast-SNARF)");
+  auto* cmd = app.add_subcommand("train", "Train an articulated occupancy model (SNARF / Fast-SNARF / baselines)");
   cmd->add_option("--data", opt->data, "dataset directory (fskin data build); default: the run's");
-  cmd->add_option("--method", opt->method, "fast-snarf or snarf");
+  cmd->add_option("--method", opt->method, "fast-snarf, snarf, or a baseline: pose-onet, back-lbs, back-d, piecewise")
+      ->check(CLI::IsMember(method_names()));
   cmd->add_option("--out", opt->out, "run directory (config, log.jsonl, checkpoints)")->required();
   cmd->add_option("--config", opt->config, "JSON config overlaid on the defaults");
   cmd->add_option("--steps", opt->steps, "total training steps");
