@@ -13,5 +13,6 @@ void register_data(CLI::App& app);
 void register_train(CLI::App& app);
 void register_eval(CLI::App& app);
 void register_render(CLI::App& app);
+void register_report(CLI::App& app);
 
 }  // namespace fskin::cli

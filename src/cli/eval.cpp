@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <filesystem>
 
+#include <nlohmann/json.hpp>
+
 #include "cli/commands.h"
 #include "fskin/core/error.h"
 #include "fskin/data/dataset.h"
@@ -33,8 +35,7 @@ void register_eval(CLI::App& app) {
     FSKIN_CHECK(!data.empty(), "eval: {} records no dataset; pass --data", opt->run);
     std::string split = opt->split;
     std::replace(split.begin(), split.end(), '-', '_');
-    const auto train_set = Dataset::load(data, "train");
-    const auto skeleton = canonical_skeleton(train_set);
+    const auto skeleton = canonical_skeleton(Dataset::load_canonical(data));
     int64_t step = 0;
     auto model = load_trained_model(opt->run, skeleton, &step);
     const auto test_set = Dataset::load(data, split);
@@ -42,7 +43,10 @@ void register_eval(CLI::App& app) {
     if (opt->max_frames >= 0 && opt->max_frames < static_cast<int64_t>(frames.size())) frames.resize(opt->max_frames);
     const auto result = evaluate(*model, frames, opt->split, config.eval_chunk_points, !opt->quiet);
     const auto out = (std::filesystem::path(opt->run) / ("eval-" + opt->split + ".json")).string();
-    write_file_atomically(out, result.to_json());
+    auto json = nlohmann::json::parse(result.to_json());
+    json["method"] = config.method;
+    json["step"] = step;
+    write_file_atomically(out, json.dump(2) + "\n");
     std::printf("%s, step %lld, split %s (%zu frames)\n%s", config.method.c_str(), static_cast<long long>(step),
                 opt->split.c_str(), frames.size(), result.table().c_str());
     std::printf("wrote %s\n", out.c_str());
