@@ -50,6 +50,10 @@ void register_train(CLI::App& app) {
                 static_cast<long long>(dataset.size()), config.data.c_str(), static_cast<long long>(config.steps),
                 opt->out.c_str());
     const auto result = train(config, source, {opt->out, opt->resume, !opt->quiet, &stop});
+    if (result.skinning_prior_loss > 0) {
+      std::printf("skinning warm start: %lld steps on the skeleton's nearest-bone prior, cross-entropy %.3f\n",
+                  static_cast<long long>(config.skinning_prior_steps), result.skinning_prior_loss);
+    }
     std::printf("%s at step %lld: loss %.4f -> %.4f, %.1f s (%.2f steps/s)\n",
                 result.stopped ? "stopped" : "finished", static_cast<long long>(result.last_step), result.first_loss,
                 result.last_loss, result.seconds,

@@ -13,7 +13,7 @@ namespace fskin {
 
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TrainConfig, data, method, seed, steps, frames_per_batch, surface_points, uniform_points, learning_rate, grad_clip,
-    bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, checkpoint_every, keep_checkpoints,
+    bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, skinning_prior_steps, checkpoint_every, keep_checkpoints,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
     pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, grid, part_hidden_dim, part_hidden_layers, start_bones,
     max_iterations, eval_chunk_points)
@@ -84,6 +84,7 @@ void TrainConfig::validate() const {
               learning_rate);
   FSKIN_CHECK(grad_clip >= 0 && bootstrap_epochs >= 0 && joint_weight_loss_weight >= 0,
               "config: grad_clip, bootstrap_epochs and joint_weight_loss_weight must be >= 0");
+  FSKIN_CHECK(skinning_prior_steps >= 0, "config: skinning_prior_steps {} must be >= 0", skinning_prior_steps);
   FSKIN_CHECK(checkpoint_every >= 1 && keep_checkpoints >= 1, "config: checkpoint_every {} and keep_checkpoints {} must be >= 1",
               checkpoint_every, keep_checkpoints);
   FSKIN_CHECK(grid.size() == 3 && *std::min_element(grid.begin(), grid.end()) >= 2,

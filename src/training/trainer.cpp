@@ -14,6 +14,7 @@
 #include "fskin/training/bootstrap_losses.h"
 #include "fskin/training/checkpoint.h"
 #include "fskin/training/model_factory.h"
+#include "fskin/training/skinning_prior.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/util/progress.h"
 
@@ -111,10 +112,15 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
   torch::optim::Adam adam(std::move(groups), torch::optim::AdamOptions(config.learning_rate));
 
   int64_t step = 0;
+  double result_prior_loss = 0;
   if (options.resume) {
     const auto loaded = load_state(options.run_dir, model, &adam);
     FSKIN_CHECK(loaded.has_value(), "train --resume: no intact checkpoint in {}", options.run_dir);
     step = *loaded;
+  }
+  if (!options.resume && config.skinning_prior_steps > 0 && model.canonical_skinning_field() != nullptr) {
+    result_prior_loss = fit_skinning_prior(*model.canonical_skinning_field(), skeleton, config.skinning_prior_steps,
+                                           config.learning_rate, step_seed(config.seed, -1));
   }
   const std::string log_file = log_path(options.run_dir);
   if (options.resume) {
@@ -127,6 +133,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
 
   TrainResult result;
   result.first_step = step;
+  result.skinning_prior_loss = result_prior_loss;
   const int64_t bootstrap_steps = config.bootstrap_steps(source.num_frames());
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar("train", std::max<int64_t>(config.steps - step, 0), options.progress);

@@ -34,6 +34,7 @@ class ArticulatedOccupancyModel : public OccupancyModel {
   torch::Tensor bootstrap_loss(const BootstrapInputs& inputs) override;
   bool has_canonical_shape() const override { return true; }
   torch::Tensor canonical_logits(const torch::Tensor& x_canonical, const torch::Tensor& pose) override;
+  SkinningField* canonical_skinning_field() override { return skinning_.get(); }
   // Skinning weights the deformer uses at canonical points [..., 3] -> [..., J].
   torch::Tensor skinning_weights(const torch::Tensor& x_canonical);
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "fskin/deformers/deformer.h"
+#include "fskin/fields/skinning_field.h"
 #include "fskin/training/batch_source.h"
 
 namespace fskin {
@@ -56,6 +57,10 @@ class OccupancyModel : public torch::nn::Module {
   // Canonical occupancy logits at canonical points [B, M, 3] with pose [B, J, 3]
   // as condition; throws fskin::Error for methods without a canonical shape.
   virtual torch::Tensor canonical_logits(const torch::Tensor& x_canonical, const torch::Tensor& pose);
+
+  // The learned canonical skinning field, for the skeleton prior's warm start
+  // (skinning_prior.h); nullptr for methods without one.
+  virtual SkinningField* canonical_skinning_field() { return nullptr; }
 
   // Fixes what can be precomputed for inference (Fast-SNARF's grid) until the
   // next train(true).

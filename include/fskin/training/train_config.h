@@ -27,6 +27,9 @@ struct TrainConfig {
   double bootstrap_epochs = 1;
   int64_t bone_points_per_bone = 5;
   double joint_weight_loss_weight = 10;
+  // Warm start of the skinning network on the skeleton's nearest-bone prior
+  // (skinning_prior.h) before step 0; 0 turns it off (the papers' setting).
+  int64_t skinning_prior_steps = 300;
   int64_t checkpoint_every = 200;
   int64_t keep_checkpoints = 2;
   // Occupancy network; the pose vector's width comes from the skeleton.

@@ -27,6 +27,7 @@ struct TrainResult {
   int64_t first_step = 0, last_step = 0;  // steps run: [first_step, last_step)
   double first_loss = 0, last_loss = 0;    // BCE of the first and last step run
   double seconds = 0;
+  double skinning_prior_loss = 0;  // cross-entropy after the warm start (0: none ran)
   bool stopped = false;  // by the stop signal
 };
 
