@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   fskin::cli::register_data(app);
   fskin::cli::register_train(app);
   fskin::cli::register_eval(app);
+  fskin::cli::register_mesh(app);
   fskin::cli::register_render(app);
   // Subcommand callbacks run inside parse(), after the global options are read.
   app.parse_complete_callback([&] { at::set_num_threads(std::max(1, threads)); });
