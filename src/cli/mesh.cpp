@@ -32,7 +32,8 @@ void register_mesh(CLI::App& app) {
   cmd->add_option("--out", opt->out, "output mesh .ply or .obj")->required();
   add_meshing_flags(*cmd, opt->meshing);
   cmd->add_option("--data", opt->data, "dataset directory (default: the one the run trained on)");
-  cmd->add_option("--model", opt->model, "with --pose: body model .npz the dataset was built from (default: the manifest's)");
+  cmd->add_option("--model", opt->model,
+                  "with --pose: body model .npz the dataset was built from (default: the manifest's)");
   cmd->add_flag("--quiet", opt->quiet, "no progress bar");
   cmd->callback([opt] {
     FSKIN_CHECK(opt->canonical || !opt->pose.empty(), "mesh: give --pose FILE (and --index K) or --canonical");

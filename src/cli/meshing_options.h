@@ -35,7 +35,9 @@ inline void add_meshing_flags(CLI::App& cmd, MeshingFlags& flags) {
 }
 
 // Checks the flags before any work: fails unless resolution / initial is a power of two.
-inline void check_meshing_flags(const MeshingFlags& flags) { MiseOptions::resolutions(flags.initial, flags.resolution); }
+inline void check_meshing_flags(const MeshingFlags& flags) {
+  MiseOptions::resolutions(flags.initial, flags.resolution);
+}
 
 // Fails before any work when `path` is not a mesh file name fskin writes.
 inline void check_mesh_path(const std::string& path) {

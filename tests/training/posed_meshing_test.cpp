@@ -69,10 +69,11 @@ TEST(PosedMeshing, MeshesOfATrainedLimbLieOnItsPosedSurface) {
   options.mise = MiseOptions::resolutions(12, 48);
   options.largest_component = true;
   const std::vector<double> test_angles = {0.9, -0.5};
+  const auto bones = torch::stack({SyntheticLimb::bones(test_angles[0]), SyntheticLimb::bones(test_angles[1])});
+  const auto poses = torch::stack({SyntheticLimb::pose(test_angles[0]), SyntheticLimb::pose(test_angles[1])});
   std::vector<Mesh> meshes;
   mesh_pose_sequence(
-      *model, limb.skeleton(), torch::stack({SyntheticLimb::bones(0.9), SyntheticLimb::bones(-0.5)}),
-      torch::stack({SyntheticLimb::pose(0.9), SyntheticLimb::pose(-0.5)}), options,
+      *model, limb.skeleton(), bones, poses, options,
       [&](int64_t index, MeshingResult&& result) {
         EXPECT_EQ(index, static_cast<int64_t>(meshes.size()));
         EXPECT_LT(result.stats.evaluated_fraction(), 0.5);
@@ -89,8 +90,10 @@ TEST(PosedMeshing, MeshesOfATrainedLimbLieOnItsPosedSurface) {
     // puts it (and not where the other pose would).
     const auto normals = vertex_normals(mesh);
     const auto agreement = [&](double angle) {
-      const double outside = 1.0 - SyntheticLimb::occupancy(mesh.vertices + 0.04 * normals, angle).mean().item<double>();
-      const double inside = SyntheticLimb::occupancy(mesh.vertices - 0.04 * normals, angle).mean().item<double>();
+      const auto occupancy = [&](double offset) {
+        return SyntheticLimb::occupancy(mesh.vertices + offset * normals, angle).mean().item<double>();
+      };
+      const double outside = 1.0 - occupancy(0.04), inside = occupancy(-0.04);
       return 0.5 * (outside + inside);
     };
     const double right = agreement(test_angles[k]), wrong = agreement(test_angles[1 - k]);
@@ -99,7 +102,7 @@ TEST(PosedMeshing, MeshesOfATrainedLimbLieOnItsPosedSurface) {
     std::printf("angle %.1f: agreement %.3f in its pose, %.3f in the other\n", test_angles[k], right, wrong);
   }
   // The same pose meshed alone gives the same mesh.
-  const auto alone = mesh_posed(*model, limb.skeleton(), SyntheticLimb::bones(0.9), SyntheticLimb::pose(0.9), options);
+  const auto alone = mesh_posed(*model, limb.skeleton(), bones[0], poses[0], options);
   EXPECT_TRUE(torch::equal(alone.mesh.vertices, meshes[0].vertices));
   std::filesystem::remove_all(run);
 }
