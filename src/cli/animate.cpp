@@ -1,43 +1,130 @@
 // fskin animate: a glTF animation (.glb / .gltf) from mesh frames or from a
-// model posed by a pose file, for Blender, three.js and other viewers.
+// model posed by a pose file, for Blender, three.js and other viewers; or,
+// from a trained run, one mesh per pose (MISE in every pose, the per-frame
+// cost of SNARF / Fast-SNARF).
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <optional>
 
 #include "cli/commands.h"
+#include "cli/meshing_options.h"
 #include "fskin/body/body_model.h"
 #include "fskin/core/error.h"
+#include "fskin/data/dataset_posing.h"
 #include "fskin/data/pose_set.h"
 #include "fskin/export/gltf_animation.h"
 #include "fskin/export/palette.h"
 #include "fskin/io/mesh_io.h"
+#include "fskin/training/posed_meshing.h"
+#include "fskin/training/trained_run.h"
+#include "fskin/util/atomic_file.h"
 
 namespace fskin::cli {
+namespace {
+
+// DIR/frame_0000.ply ... and DIR/meshing.json (seconds and samples per pose).
+void mesh_run_poses(const std::string& run_dir, const std::string& pose_path, const std::string& data,
+                    const std::string& body_model, const MeshingFlags& flags, const std::string& out, bool quiet) {
+  namespace fs = std::filesystem;
+  check_meshing_flags(flags);
+  const auto poses = PoseSet::load(pose_path);
+  auto run = TrainedRun::load(run_dir, data);
+  const auto options = meshing_options(flags, run.config);
+  const auto bones = DatasetPosing::load(run.data_dir, body_model).bone_transforms(poses, pose_path);
+  fs::create_directories(out);
+  nlohmann::json frames = nlohmann::json::array();
+  std::vector<double> seconds;
+  int64_t evaluated = 0, dense = 0;
+  mesh_pose_sequence(
+      *run.model, run.skeleton, bones, poses.poses, options,
+      [&](int64_t n, MeshingResult&& result) {
+        const auto file = fmt::format("frame_{:04d}.ply", n);
+        io::write_mesh((fs::path(out) / file).string(), result.mesh);
+        seconds.push_back(result.seconds);
+        evaluated += result.stats.points_evaluated;
+        dense += result.stats.dense_points;
+        frames.push_back({{"file", file},
+                          {"seconds", result.seconds},
+                          {"field_seconds", result.stats.field_seconds},
+                          {"points_evaluated", result.stats.points_evaluated},
+                          {"dense_points", result.stats.dense_points},
+                          {"vertices", result.mesh.num_vertices()},
+                          {"faces", result.mesh.num_faces()}});
+      },
+      !quiet);
+  const auto n = static_cast<double>(seconds.size());
+  double total = 0;
+  for (double s : seconds) total += s;
+  const nlohmann::json summary = {{"run", run_dir},
+                                  {"method", run.config.method},
+                                  {"step", run.step},
+                                  {"poses", pose_path},
+                                  {"resolution", options.mise.final_resolution()},
+                                  {"initial_resolution", options.mise.initial_resolution},
+                                  {"seconds_per_pose", total / n},
+                                  {"frames", frames}};
+  write_file_atomically((fs::path(out) / "meshing.json").string(), summary.dump(2) + "\n");
+  std::printf("wrote %zu meshes to %s (%s, step %lld, MISE %lld -> %lld)\n"
+              "%.2f s per pose (min %.2f, max %.2f); %.0f of %.0f samples evaluated per pose (%.1f %%)\n",
+              seconds.size(), out.c_str(), run.config.method.c_str(), static_cast<long long>(run.step),
+              static_cast<long long>(options.mise.initial_resolution),
+              static_cast<long long>(options.mise.final_resolution()), total / n,
+              *std::min_element(seconds.begin(), seconds.end()), *std::max_element(seconds.begin(), seconds.end()),
+              static_cast<double>(evaluated) / n, static_cast<double>(dense) / n,
+              100.0 * static_cast<double>(evaluated) / static_cast<double>(dense));
+}
+
+}  // namespace
 
 void register_animate(CLI::App& app) {
   struct Options {
     std::vector<std::string> meshes;
-    std::string model, pose, out;
+    std::string model, pose, out, run, run_poses, data;
     double fps = 30;
-    bool color_by_bone = false;
+    bool color_by_bone = false, quiet = false;
+    MeshingFlags meshing;
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = app.add_subcommand(
-      "animate", "Write a glTF animation (.glb or .gltf) from mesh frames or a posed model");
+      "animate",
+      "Write a glTF animation (.glb or .gltf) from mesh frames or a posed model; or, with a trained run, "
+      "one mesh per pose (DIR/frame_0000.ply ...)");
+  auto* run = cmd->add_option("run", opt->run, "trained run directory (with --poses): mesh every pose");
   auto* meshes = cmd->add_option("--mesh", opt->meshes,
                                  "mesh frames in order (.ply or .obj, same faces); repeat");
   auto* model = cmd->add_option("--model", opt->model,
-                                "SMPL-format model .npz (with --pose, or for --color-by-bone)");
+                                "SMPL-format model .npz (with --pose, or for --color-by-bone; with RUN: the "
+                                "dataset's body model, default the manifest's)");
   cmd->add_option("--pose", opt->pose, "pose file .npz (N, J, 3): one frame per pose")
       ->needs(model)
       ->excludes(meshes);
   cmd->add_flag("--color-by-bone", opt->color_by_bone,
                 "colour vertices by the model's arg-max skinning bone")
       ->needs(model);
-  cmd->add_option("--out", opt->out, "output .glb (binary) or .gltf (JSON)")->required();
+  auto* run_poses = cmd->add_option("--poses", opt->run_poses, "with RUN: pose file .npz (N, J, 3), one mesh each")
+                       ->needs(run)
+                       ->excludes(meshes);
+  run->needs(run_poses);
+  cmd->add_option("--data", opt->data, "with RUN: dataset directory (default: the one the run trained on)")
+      ->needs(run);
+  cmd->add_option("--out", opt->out, "output .glb (binary) or .gltf (JSON); with RUN: output directory")
+      ->required();
   cmd->add_option("--fps", opt->fps, "frames per second")->check(CLI::PositiveNumber);
+  auto* meshing = cmd->add_option_group("meshing", "with RUN: MISE settings");
+  add_meshing_flags(*meshing, opt->meshing);
+  cmd->add_flag("--quiet", opt->quiet, "no progress bar");
   cmd->callback([opt] {
+    if (!opt->run.empty()) {
+      FSKIN_CHECK(opt->pose.empty() && !opt->color_by_bone,
+                  "animate RUN --poses: --pose and --color-by-bone belong to the glTF modes");
+      mesh_run_poses(opt->run, opt->run_poses, opt->data, opt->model, opt->meshing, opt->out, opt->quiet);
+      return;
+    }
     FSKIN_CHECK(!opt->meshes.empty() || !opt->pose.empty(),
                 "animate: give mesh frames (--mesh ...) or --model with --pose");
     MeshAnimation animation;

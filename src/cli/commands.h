@@ -12,6 +12,7 @@ void register_poses(CLI::App& app);
 void register_data(CLI::App& app);
 void register_train(CLI::App& app);
 void register_eval(CLI::App& app);
+void register_mesh(CLI::App& app);
 void register_render(CLI::App& app);
 void register_report(CLI::App& app);
 

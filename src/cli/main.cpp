@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   fskin::cli::register_data(app);
   fskin::cli::register_train(app);
   fskin::cli::register_eval(app);
+  fskin::cli::register_mesh(app);
   fskin::cli::register_render(app);
   fskin::cli::register_report(app);
   // Subcommand callbacks run inside parse(), after the global options are read.

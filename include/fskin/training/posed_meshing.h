@@ -1,0 +1,67 @@
+#pragma once
+// Meshes of a trained articulated model: the posed surface (posed occupancy
+// logit 0, hard-max aggregation over the canonical correspondences, SNARF
+// eq. 9) or the canonical one, extracted with MISE (geometry/mise.h).
+//
+// SNARF and Fast-SNARF define the shape only implicitly in posed space, so
+// animating them means one MISE per pose: the per-frame meshing cost that
+// Invertible Neural Skinning compares against (a canonical mesh re-posed once
+// per frame).
+//
+// The box meshed: the canonical extent of the training data (the canonical
+// mesh's vertices, CanonicalSkeleton::extent) pushed forward with the model's
+// own skinning weights and the bones (LBS, SNARF eq. 4), joined with the
+// posed joints, then padded on every side by `padding` times its longest
+// side. It follows the pose without ground truth, and a learned surface more
+// than the padding away from where the model's skinning sends the canonical
+// extent would be cut by the box (the mesh is then open there).
+#include <torch/types.h>
+
+#include <cstdint>
+#include <functional>
+
+#include "fskin/data/point_sampling.h"
+#include "fskin/geometry/mesh.h"
+#include "fskin/geometry/mise.h"
+#include "fskin/training/articulated_occupancy_model.h"
+#include "fskin/training/batch_source.h"
+
+namespace fskin {
+
+struct PosedMeshingOptions {
+  MiseOptions mise;  // iso 0 on logits, inside above (the defaults)
+  double padding = 0.1;
+  bool largest_component = false;  // drop floaters: keep the component with the most faces
+};
+
+struct MeshingResult {
+  Mesh mesh;
+  MiseStats stats;
+  Box box;              // requested box (before padding to whole voxels)
+  double seconds = 0;   // box, MISE and clean-up
+};
+
+// The boxes described above; bones [J, 4, 4] canonical -> posed.
+Box posed_meshing_box(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+                      const torch::Tensor& bones, double padding);
+Box canonical_meshing_box(const CanonicalSkeleton& skeleton, double padding);
+
+// The posed surface for bones [J, 4, 4] (canonical -> posed) and pose [J, 3]
+// (the pose condition). Puts the model in inference mode (frozen Fast-SNARF grid).
+MeshingResult mesh_posed(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+                         const torch::Tensor& bones, const torch::Tensor& pose, const PosedMeshingOptions& options,
+                         const MiseProgress& progress = {});
+
+// The canonical surface, conditioned on `pose` [J, 3] (the canonical pose).
+MeshingResult mesh_canonical(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+                             const torch::Tensor& pose, const PosedMeshingOptions& options,
+                             const MiseProgress& progress = {});
+
+// One mesh per pose, bones [N, J, 4, 4] and poses [N, J, 3], in order;
+// `on_mesh(index, result)` receives each (to write it and let it go).
+// Progress bar over the poses when `progress`.
+void mesh_pose_sequence(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+                        const torch::Tensor& bones, const torch::Tensor& poses, const PosedMeshingOptions& options,
+                        const std::function<void(int64_t, MeshingResult&&)>& on_mesh, bool progress);
+
+}  // namespace fskin

@@ -1,0 +1,122 @@
+#include "fskin/training/posed_meshing.h"
+
+#include <fmt/format.h>
+#include <torch/torch.h>
+
+#include <chrono>
+#include <cmath>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+#include "fskin/geometry/mesh_topology.h"
+#include "fskin/skeleton/lbs.h"
+#include "fskin/util/progress.h"
+
+namespace fskin {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+Box padded_bounds(const torch::Tensor& points, double padding) {
+  FSKIN_CHECK(std::isfinite(padding) && padding >= 0, "meshing: padding must be >= 0, got {}", padding);
+  expect_finite(points, "meshing box");
+  const auto p = points.reshape({-1, 3}).to(torch::kFloat64);
+  const auto lo = std::get<0>(p.min(0)), hi = std::get<0>(p.max(0));
+  const double margin = padding * (hi - lo).max().item<double>();
+  Box box;
+  for (int axis = 0; axis < 3; ++axis) {
+    box.min[axis] = lo[axis].item<double>() - margin;
+    box.max[axis] = hi[axis].item<double>() + margin;
+  }
+  return box;
+}
+
+void check_skeleton(const CanonicalSkeleton& skeleton) {
+  expect_shape(skeleton.extent, {-1, 3}, "meshing: skeleton extent");
+  FSKIN_CHECK(skeleton.extent.size(0) > 0, "meshing: the skeleton has no extent points");
+  expect_shape(skeleton.joints, {-1, 3}, "meshing: skeleton joints");
+}
+
+void prepare_for_inference(ArticulatedOccupancyModel& model) {
+  model.train(false);
+  model.freeze_for_inference();
+}
+
+MeshingResult extract(const ScalarField& field, const Box& box, const PosedMeshingOptions& options,
+                      const MiseProgress& progress, Clock::time_point start) {
+  auto found = mise(field, box.min, box.max, options.mise, progress);
+  MeshingResult result{std::move(found.mesh), found.stats, box, 0.0};
+  if (options.largest_component && result.mesh.num_faces() > 0) result.mesh = keep_largest_component(result.mesh);
+  result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return result;
+}
+
+}  // namespace
+
+Box posed_meshing_box(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton, const torch::Tensor& bones,
+                      double padding) {
+  check_skeleton(skeleton);
+  const int64_t J = skeleton.joints.size(0);
+  expect_shape(bones, {J, 4, 4}, "meshing: bones");
+  torch::NoGradGuard no_grad;
+  prepare_for_inference(model);
+  const auto extent = skeleton.extent.to(torch::kFloat32).unsqueeze(0);  // [1, M, 3]
+  const auto b = bones.to(torch::kFloat32).unsqueeze(0);
+  const auto skinned = linear_blend_skinning(extent, model.skinning_weights(extent), b)[0];
+  const auto joints = transform_points(bones.to(torch::kFloat32), skeleton.joints.to(torch::kFloat32));
+  return padded_bounds(torch::cat({skinned, joints}), padding);
+}
+
+Box canonical_meshing_box(const CanonicalSkeleton& skeleton, double padding) {
+  check_skeleton(skeleton);
+  return padded_bounds(torch::cat({skeleton.extent.to(torch::kFloat32), skeleton.joints.to(torch::kFloat32)}),
+                       padding);
+}
+
+MeshingResult mesh_posed(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+                         const torch::Tensor& bones, const torch::Tensor& pose, const PosedMeshingOptions& options,
+                         const MiseProgress& progress) {
+  const auto start = Clock::now();
+  const int64_t J = skeleton.joints.size(0);
+  expect_shape(pose, {J, 3}, "meshing: pose");
+  const Box box = posed_meshing_box(model, skeleton, bones, options.padding);
+  torch::NoGradGuard no_grad;
+  const auto b = bones.to(torch::kFloat32).unsqueeze(0), p = pose.to(torch::kFloat32).unsqueeze(0);
+  const ScalarField field = [&](const torch::Tensor& points) {
+    return model.predict(points.unsqueeze(0), b, p, Aggregation::Max).logits.squeeze(0);
+  };
+  return extract(field, box, options, progress, start);
+}
+
+MeshingResult mesh_canonical(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+                             const torch::Tensor& pose, const PosedMeshingOptions& options,
+                             const MiseProgress& progress) {
+  const auto start = Clock::now();
+  expect_shape(pose, {skeleton.joints.size(0), 3}, "meshing: canonical pose");
+  const Box box = canonical_meshing_box(skeleton, options.padding);
+  torch::NoGradGuard no_grad;
+  prepare_for_inference(model);
+  const auto p = pose.to(torch::kFloat32).unsqueeze(0);
+  const ScalarField field = [&](const torch::Tensor& points) {
+    return model.canonical_logits(points.unsqueeze(0), p).reshape({-1});
+  };
+  return extract(field, box, options, progress, start);
+}
+
+void mesh_pose_sequence(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+                        const torch::Tensor& bones, const torch::Tensor& poses, const PosedMeshingOptions& options,
+                        const std::function<void(int64_t, MeshingResult&&)>& on_mesh, bool progress) {
+  const int64_t J = skeleton.joints.size(0);
+  expect_shape(bones, {-1, J, 4, 4}, "meshing: bones");
+  expect_shape(poses, {bones.size(0), J, 3}, "meshing: poses");
+  ProgressBar bar("meshing poses", bones.size(0), progress);
+  for (int64_t n = 0; n < bones.size(0); ++n) {
+    auto result = mesh_posed(model, skeleton, bones[n], poses[n], options);
+    const auto status = fmt::format("{:.1f} s, {} faces", result.seconds, result.mesh.num_faces());
+    on_mesh(n, std::move(result));
+    bar.advance(1, status);
+  }
+  bar.finish();
+}
+
+}  // namespace fskin

@@ -1,0 +1,31 @@
+#include "fskin/training/trained_run.h"
+
+#include <filesystem>
+
+#include "fskin/core/error.h"
+#include "fskin/training/dataset_source.h"
+#include "fskin/training/trainer.h"
+
+namespace fskin {
+
+TrainedRun TrainedRun::load(const std::string& run_dir, const std::string& data_dir) {
+  namespace fs = std::filesystem;
+  FSKIN_CHECK(fs::is_directory(run_dir), "run directory {} does not exist", run_dir);
+  const auto config_path = (fs::path(run_dir) / "config.json").string();
+  FSKIN_CHECK(fs::exists(config_path), "{} has no config.json: not a run directory written by `fskin train`",
+              run_dir);
+  TrainedRun run;
+  run.dir = run_dir;
+  run.config = TrainConfig::load(config_path, TrainConfig{});
+  run.data_dir = data_dir.empty() ? run.config.data : data_dir;
+  FSKIN_CHECK(!run.data_dir.empty(), "{} records no dataset; pass the dataset directory (--data)", config_path);
+  // The skeleton (and with it the model's voxel box) comes from the training
+  // frames, as in training.
+  const auto dataset = Dataset::load(run.data_dir, "train");
+  run.skeleton = canonical_skeleton(dataset);
+  run.canonical_pose = dataset.canonical().pose.to(torch::kFloat32);
+  run.model = load_trained_model(run_dir, run.skeleton, &run.step);
+  return run;
+}
+
+}  // namespace fskin

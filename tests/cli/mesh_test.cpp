@@ -1,0 +1,125 @@
+// `fskin mesh` and `fskin animate RUN --poses`, run as a user would, on a run
+// trained for two steps on a tiny dataset of the built-in character.
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <cstdlib>
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include "fskin/data/inside_test.h"
+#include "fskin/data/pose_set.h"
+#include "fskin/geometry/mesh_topology.h"
+#include "fskin/io/mesh_io.h"
+#include "fskin/util/atomic_file.h"
+#include "test_util.h"
+
+namespace fskin {
+namespace {
+
+namespace fs = std::filesystem;
+
+class MeshCommand : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    if (!inside_test_available()) return;
+    dir_ = new fs::path(testing::temp_dir("cli_mesh"));
+    const std::vector<std::string> steps = {
+        "character --resolution 56 --out " + path("model.npz"),
+        "poses train --model " + path("model.npz") + " --out " + path("poses.npz") + " --sequences 1 --frames 5",
+        "data build --model " + path("model.npz") + " --poses " + path("poses.npz") + " --out " + path("set") +
+            " --points 1000 --quiet",
+        "train --data " + path("set") + " --out " + path("run") +
+            " --steps 2 --quiet --set frames_per_batch=1 --set surface_points=100 --set uniform_points=50"
+            " --set occupancy_hidden_dim=16 --set skinning_hidden_dim=16 --set grid=[4,16,16]",
+    };
+    for (const auto& step : steps) ASSERT_EQ(run_cli(step), 0) << step << "\n" << log();
+  }
+  static void TearDownTestSuite() {
+    if (dir_) fs::remove_all(*dir_);
+    delete dir_;
+    dir_ = nullptr;
+  }
+  void SetUp() override {
+    if (!inside_test_available()) GTEST_SKIP() << "built without Embree (no dataset)";
+  }
+
+  static std::string path(const std::string& name) { return (*dir_ / name).string(); }
+  static int run_cli(const std::string& arguments) {
+    return std::system((std::string(FSKIN_CLI_PATH) + " " + arguments + " > " + path("log.txt") + " 2>&1").c_str());
+  }
+  static std::string log() { return read_file(path("log.txt")); }
+  // Fails the test unless the command fails with a message containing `part`.
+  static void expect_failure(const std::string& arguments, const std::string& part) {
+    EXPECT_NE(run_cli(arguments), 0) << arguments;
+    EXPECT_NE(log().find(part), std::string::npos) << arguments << "\n" << log();
+  }
+
+  static fs::path* dir_;
+};
+fs::path* MeshCommand::dir_ = nullptr;
+
+TEST_F(MeshCommand, WritesPosedAndCanonicalMeshes) {
+  const std::string grid = " --resolution 32 --initial 8 --quiet";
+  ASSERT_EQ(run_cli("mesh " + path("run") + " --pose " + path("poses.npz") + " --index 3 --out " + path("posed.ply") +
+                    grid),
+            0)
+      << log();
+  EXPECT_NE(log().find("samples evaluated"), std::string::npos) << log();
+  const auto posed = io::read_mesh(path("posed.ply"));
+  EXPECT_GT(posed.num_faces(), 0);
+  ASSERT_EQ(run_cli("mesh " + path("run") + " --canonical --largest-component --out " + path("canonical.obj") + grid),
+            0)
+      << log();
+  const auto canonical = io::read_mesh(path("canonical.obj"));
+  ASSERT_GT(canonical.num_faces(), 0);
+  EXPECT_EQ(connected_components(canonical).count, 1);
+}
+
+TEST(MeshCommandArguments, AreCheckedBeforeAnyWork) {
+  const auto dir = testing::temp_dir("cli_mesh_arguments");
+  const auto path = [&](const std::string& name) { return (dir / name).string(); };
+  PoseSet{torch::zeros({5, 24, 3}), torch::zeros({5, 3}), {}}.save(path("poses.npz"));
+  const auto expect_failure = [&](const std::string& arguments, const std::string& part) {
+    EXPECT_NE(std::system((std::string(FSKIN_CLI_PATH) + " " + arguments + " > " + path("log.txt") + " 2>&1").c_str()),
+              0)
+        << arguments;
+    const auto log = read_file(path("log.txt"));
+    EXPECT_NE(log.find(part), std::string::npos) << arguments << "\n" << log;
+  };
+  const std::string pose = " --pose " + path("poses.npz"), out = " --out " + path("x.ply");
+  expect_failure("mesh " + path("no_such_run") + pose + out, "does not exist");
+  expect_failure("mesh " + dir.string() + pose + out, "no config.json");
+  expect_failure("mesh " + path("run") + pose + " --index 5" + out, "out of range [0, 5)");
+  expect_failure("mesh " + path("run") + pose + " --resolution 48 --initial 32" + out, "power of two");
+  expect_failure("mesh " + path("run") + pose + " --out " + path("x.stl"), ".ply or .obj");
+  expect_failure("mesh " + path("run") + out, "--canonical");
+  EXPECT_FALSE(fs::exists(path("x.ply")));
+  fs::remove_all(dir);
+}
+
+TEST_F(MeshCommand, AnimateWritesOneMeshPerPose) {
+  ASSERT_EQ(run_cli("animate " + path("run") + " --poses " + path("poses.npz") + " --out " + path("frames") +
+                    " --resolution 16 --initial 8 --quiet"),
+            0)
+      << log();
+  EXPECT_NE(log().find("s per pose"), std::string::npos) << log();
+  for (int i = 0; i < 5; ++i) {
+    const auto file = path("frames") + "/frame_000" + std::to_string(i) + ".ply";
+    EXPECT_NO_THROW(io::read_mesh(file)) << file;
+  }
+  EXPECT_FALSE(fs::exists(path("frames") + "/frame_0005.ply"));
+  const auto summary = nlohmann::json::parse(read_file(path("frames") + "/meshing.json"));
+  EXPECT_EQ(summary.at("frames").size(), 5u);
+  EXPECT_GT(summary.at("seconds_per_pose").get<double>(), 0.0);
+  EXPECT_EQ(summary.at("resolution").get<int64_t>(), 16);
+  expect_failure("animate " + path("run") + " --out " + path("frames"), "--poses");
+  // A pose file of another skeleton: the error names the file and the joints expected.
+  PoseSet{torch::zeros({2, 3, 3}), torch::zeros({2, 3}), {}}.save(path("three.npz"));
+  expect_failure("animate " + path("run") + " --poses " + path("three.npz") + " --out " + path("other"), "three.npz");
+  EXPECT_NE(log().find("24"), std::string::npos) << log();
+}
+
+}  // namespace
+}  // namespace fskin
