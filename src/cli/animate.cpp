@@ -7,6 +7,7 @@
 #include <torch/torch.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
@@ -26,6 +27,58 @@
 
 namespace fskin::cli {
 namespace {
+
+// Re-posing: the canonical mesh once (MISE), coloured by arg-max skinning bone,
+// then every pose by moving its vertices (INS eq. 19): DIR/canonical.ply,
+// DIR/frame_0000.ply ..., DIR/animation.glb (one mesh, a morph target per
+// frame) and DIR/meshing.json.
+void repose_run_poses(const std::string& run_dir, const std::string& pose_path, const std::string& data,
+                      const std::string& body_model, const MeshingFlags& flags, const std::string& out, double fps,
+                      bool quiet) {
+  namespace fs = std::filesystem;
+  check_meshing_flags(flags);
+  const auto poses = PoseSet::load(pose_path);
+  auto run = TrainedRun::load(run_dir, data);
+  const auto options = meshing_options(flags, run.config);
+  const auto bones = DatasetPosing::load(run.data_dir, body_model).bone_transforms(poses, pose_path);
+  fs::create_directories(out);
+  auto canonical = mesh_canonical(*run.model, run.skeleton, run.canonical_pose, options);
+  FSKIN_CHECK(canonical.mesh.num_faces() > 0, "animate: {} has an empty canonical surface", run_dir);
+  if (auto* field = run.model->canonical_skinning_field()) {
+    torch::NoGradGuard no_grad;
+    canonical.mesh.colors = color_by_argmax_weight(field->weights(canonical.mesh.vertices));
+  }
+  io::write_mesh((fs::path(out) / "canonical.ply").string(), canonical.mesh);
+  const auto start = std::chrono::steady_clock::now();
+  const auto frames = repose_vertices(*run.model, canonical.mesh, bones, 8, !quiet);
+  const double repose_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (int64_t n = 0; n < frames.size(0); ++n) {
+    io::write_mesh((fs::path(out) / fmt::format("frame_{:04d}.ply", n)).string(),
+                   Mesh{frames[n].contiguous(), canonical.mesh.faces, canonical.mesh.colors});
+  }
+  MeshAnimation animation;
+  animation.fps = fps;
+  animation.frames = frames;
+  animation.faces = canonical.mesh.faces;
+  animation.colors = canonical.mesh.colors;
+  write_gltf_animation((fs::path(out) / "animation.glb").string(), animation);
+  const double per_pose = repose_seconds / static_cast<double>(frames.size(0));
+  const nlohmann::json summary = {{"run", run_dir},
+                                  {"method", run.config.method},
+                                  {"step", run.step},
+                                  {"poses", pose_path},
+                                  {"mode", "repose"},
+                                  {"canonical_meshing_seconds", canonical.seconds},
+                                  {"canonical_vertices", canonical.mesh.num_vertices()},
+                                  {"repose_seconds", repose_seconds},
+                                  {"seconds_per_pose", per_pose}};
+  write_file_atomically((fs::path(out) / "meshing.json").string(), summary.dump(2) + "\n");
+  std::printf("wrote %lld re-posed meshes of %lld vertices and animation.glb to %s (%s, step %lld)\n"
+              "canonical mesh %.2f s once, then %.4f s per pose (%.1f poses/s)\n",
+              static_cast<long long>(frames.size(0)), static_cast<long long>(canonical.mesh.num_vertices()),
+              out.c_str(), run.config.method.c_str(), static_cast<long long>(run.step), canonical.seconds, per_pose,
+              1.0 / per_pose);
+}
 
 // DIR/frame_0000.ply ... and DIR/meshing.json (seconds and samples per pose).
 void mesh_run_poses(const std::string& run_dir, const std::string& pose_path, const std::string& data,
@@ -86,7 +139,7 @@ void register_animate(CLI::App& app) {
     std::vector<std::string> meshes;
     std::string model, pose, out, run, run_poses, data;
     double fps = 30;
-    bool color_by_bone = false, quiet = false;
+    bool color_by_bone = false, quiet = false, repose = false, per_pose = false;
     MeshingFlags meshing;
   };
   auto opt = std::make_shared<Options>();
@@ -112,6 +165,13 @@ void register_animate(CLI::App& app) {
   run->needs(run_poses);
   cmd->add_option("--data", opt->data, "with RUN: dataset directory (default: the one the run trained on)")
       ->needs(run);
+  auto* repose = cmd->add_flag("--repose", opt->repose,
+                               "with RUN: mesh the canonical shape once and move its vertices into every pose "
+                               "(default for ins runs; exact correspondences, ignores pose-conditioned shape)")
+                     ->needs(run);
+  cmd->add_flag("--per-pose", opt->per_pose, "with RUN: extract a new mesh in every pose (default except for ins)")
+      ->needs(run)
+      ->excludes(repose);
   cmd->add_option("--out", opt->out, "output .glb (binary) or .gltf (JSON); with RUN: output directory")
       ->required();
   cmd->add_option("--fps", opt->fps, "frames per second")->check(CLI::PositiveNumber);
@@ -122,7 +182,14 @@ void register_animate(CLI::App& app) {
     if (!opt->run.empty()) {
       FSKIN_CHECK(opt->pose.empty() && !opt->color_by_bone,
                   "animate RUN --poses: --pose and --color-by-bone belong to the glTF modes");
-      mesh_run_poses(opt->run, opt->run_poses, opt->data, opt->model, opt->meshing, opt->out, opt->quiet);
+      const auto method = TrainConfig::load((std::filesystem::path(opt->run) / "config.json").string(), TrainConfig{})
+                              .method;
+      if (opt->repose || (method == "ins" && !opt->per_pose)) {
+        repose_run_poses(opt->run, opt->run_poses, opt->data, opt->model, opt->meshing, opt->out, opt->fps,
+                         opt->quiet);
+      } else {
+        mesh_run_poses(opt->run, opt->run_poses, opt->data, opt->model, opt->meshing, opt->out, opt->quiet);
+      }
       return;
     }
     FSKIN_CHECK(!opt->meshes.empty() || !opt->pose.empty(),

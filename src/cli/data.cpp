@@ -46,7 +46,7 @@ void register_data(CLI::App& app) {
     const auto ood = opt->ood_poses.empty() ? PoseSet{} : PoseSet::load(opt->ood_poses);
     DatasetBuildOptions options;
     options.out_dir = opt->out;
-    options.model_source = opt->model;
+    options.model_source = std::filesystem::absolute(opt->model).string();
     options.poses_source = opt->poses;
     options.ood_poses_source = opt->ood_poses;
     options.sampling.uniform_points = opt->points / 2;

@@ -10,7 +10,7 @@
 #include "fskin/data/dataset.h"
 #include "fskin/training/dataset_source.h"
 #include "fskin/training/evaluation.h"
-#include "fskin/training/trainer.h"
+#include "fskin/training/trained_run.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin::cli {
@@ -30,15 +30,13 @@ void register_eval(CLI::App& app) {
   cmd->add_option("--max-frames", opt->max_frames, "evaluate only the first N frames");
   cmd->add_flag("--quiet", opt->quiet, "no progress bar");
   cmd->callback([opt] {
-    const auto config = TrainConfig::load((std::filesystem::path(opt->run) / "config.json").string(), TrainConfig{});
-    const std::string data = opt->data.empty() ? config.data : opt->data;
-    FSKIN_CHECK(!data.empty(), "eval: {} records no dataset; pass --data", opt->run);
     std::string split = opt->split;
     std::replace(split.begin(), split.end(), '-', '_');
-    const auto skeleton = canonical_skeleton(Dataset::load_canonical(data));
-    int64_t step = 0;
-    auto model = load_trained_model(opt->run, skeleton, &step);
-    const auto test_set = Dataset::load(data, split);
+    auto run = TrainedRun::load(opt->run, opt->data);
+    const auto& config = run.config;
+    const auto step = run.step;
+    auto& model = run.model;
+    const auto test_set = Dataset::load(run.data_dir, split);
     auto frames = evaluation_frames(test_set);
     if (opt->max_frames >= 0 && opt->max_frames < static_cast<int64_t>(frames.size())) frames.resize(opt->max_frames);
     const auto result = evaluate(*model, frames, opt->split, config.eval_chunk_points, !opt->quiet);

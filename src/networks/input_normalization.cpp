@@ -29,4 +29,11 @@ torch::Tensor InputNormalization::apply(const torch::Tensor& x) const {
   return (x - c) * scale;
 }
 
+torch::Tensor InputNormalization::unapply(const torch::Tensor& u) const {
+  FSKIN_CHECK(u.dim() >= 1 && u.size(-1) == 3, "InputNormalization: points must be [..., 3], got {}",
+              shape_string(u.sizes()));
+  if (scale == 1.0 && centre == std::array<double, 3>{0.0, 0.0, 0.0}) return u;
+  return u / scale + torch::tensor({centre[0], centre[1], centre[2]}, u.options());
+}
+
 }  // namespace fskin

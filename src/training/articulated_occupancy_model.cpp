@@ -13,24 +13,44 @@ namespace fskin {
 
 ArticulatedOccupancyModel::ArticulatedOccupancyModel(const ArticulatedModelOptions& options)
     : options_(options) {
-  FSKIN_CHECK(options.method == Method::FastSnarf || options.method == Method::Snarf,
+  FSKIN_CHECK(options.method == Method::FastSnarf || options.method == Method::Snarf || options.method == Method::Ins,
               "ArticulatedOccupancyModel: method {} is not a forward-skinning method", method_name(options.method));
   occupancy_ = register_module("occupancy", OccupancyNetwork(options.occupancy));
   skinning_ = register_module("skinning", std::make_shared<MlpSkinningField>(options.skinning));
-  if (options.method == Method::FastSnarf) {
+  if (options.method == Method::Snarf) {
+    deformer_ = std::make_unique<SnarfDeformer>(skinning_, options.deformer);
+  } else {
     options.box.validate("model: skinning grid box");
     deformer_ = std::make_unique<FastSnarfDeformer>(std::make_shared<DistilledSkinningField>(skinning_, options.box),
                                                     options.deformer);
-  } else {
-    deformer_ = std::make_unique<SnarfDeformer>(skinning_, options.deformer);
   }
+  if (invertible()) {
+    FSKIN_CHECK(options.occupancy.pose_dim == 0, "ins: the canonical shape must be pose-free (pose_dim = 0)");
+    auto pin = options.pin;
+    pin.own_pose_encoder = false;  // one encoder drives both PINs (Table 4)
+    pose_encoder_ = register_module("pose_encoder", PoseEncoder(options.pin.pose));
+    pin_canonical_ = register_module("pin_canonical", Pin(pin));
+    pin_deformed_ = register_module("pin_deformed", Pin(pin));
+  }
+}
+
+torch::Tensor ArticulatedOccupancyModel::through_pin(Pin& pin, const torch::Tensor& x,
+                                                     const torch::Tensor& pose_embedding, bool inverse) {
+  const auto& frame = options_.occupancy.input;
+  const auto u = frame.apply(x);
+  return frame.unapply(inverse ? pin->inverse_embedded(u, pose_embedding) : pin->forward_embedded(u, pose_embedding));
 }
 
 OccupancyPrediction ArticulatedOccupancyModel::predict(const torch::Tensor& points, const torch::Tensor& bones,
                                                        const torch::Tensor& pose, Aggregation aggregation) {
   OccupancyPrediction out;
   Stopwatch watch(points.is_cuda());
-  auto found = deformer().forward(points, bones);
+  torch::Tensor pose_embedding, query = points;
+  if (invertible()) {
+    pose_embedding = pose_encoder_->forward(bones.to(points.dtype()));
+    query = through_pin(pin_deformed_, points, pose_embedding, false);
+  }
+  auto found = deformer().forward(query, bones);
   out.deformer = found.stats;
   out.deformer_seconds = watch.lap();
 
@@ -41,7 +61,8 @@ OccupancyPrediction ArticulatedOccupancyModel::predict(const torch::Tensor& poin
   for (int64_t b = 0; b < B; ++b) {
     const auto selected = found.valid[b].flatten().nonzero().squeeze(1);
     if (selected.numel() == 0) continue;
-    const auto x = found.x_canonical[b].reshape({-1, 3}).index_select(0, selected).unsqueeze(0);
+    auto x = found.x_canonical[b].reshape({-1, 3}).index_select(0, selected).unsqueeze(0);
+    if (invertible()) x = through_pin(pin_canonical_, x, pose_embedding.slice(0, b, b + 1), false);
     values.push_back(canonical_logits(x, pose.slice(0, b, b + 1)).squeeze(0));
     indices.push_back(selected + b * slots);
   }
@@ -71,8 +92,30 @@ torch::Tensor ArticulatedOccupancyModel::skinning_weights(const torch::Tensor& x
   return deformer().field().weights(x_canonical);
 }
 
+torch::Tensor ArticulatedOccupancyModel::repose(const torch::Tensor& x_canonical, const torch::Tensor& bones) {
+  expect_shape(x_canonical, {-1, -1, 3}, "repose: canonical points");
+  expect_shape(bones, {x_canonical.size(0), options_.skinning.num_bones, 4, 4}, "repose: bones");
+  if (!invertible()) return deformer().deform(x_canonical, bones);
+  const auto pose_embedding = pose_encoder_->forward(bones.to(x_canonical.dtype()));
+  const auto lbs_canonical = through_pin(pin_canonical_, x_canonical, pose_embedding, true);
+  return through_pin(pin_deformed_, deformer().deform(lbs_canonical, bones), pose_embedding, true);
+}
+
+std::vector<OccupancyModel::ParameterGroup> ArticulatedOccupancyModel::parameter_groups(double learning_rate) {
+  if (!invertible()) return OccupancyModel::parameter_groups(learning_rate);
+  std::vector<torch::Tensor> pins, rest;
+  for (const auto& list : {pose_encoder_->parameters(), pin_canonical_->parameters(), pin_deformed_->parameters()}) {
+    pins.insert(pins.end(), list.begin(), list.end());
+  }
+  for (const auto& p : occupancy_->parameters()) rest.push_back(p);
+  for (const auto& p : skinning_->parameters()) rest.push_back(p);
+  FSKIN_CHECK(pins.size() + rest.size() == parameters().size(), "ins: parameter groups miss {} parameters",
+              parameters().size() - pins.size() - rest.size());
+  return {{rest, learning_rate}, {pins, learning_rate * options_.pin_learning_rate_factor}};
+}
+
 void ArticulatedOccupancyModel::freeze_for_inference() {
-  if (options_.method != Method::FastSnarf || frozen_deformer_) return;
+  if (options_.method == Method::Snarf || frozen_deformer_) return;
   torch::NoGradGuard no_grad;
   auto& distilled = static_cast<DistilledSkinningField&>(deformer_->field());
   frozen_deformer_ = std::make_unique<FastSnarfDeformer>(distilled.freeze(), deformer_->options());

@@ -11,7 +11,7 @@ namespace {
 const std::vector<std::pair<Method, std::string>>& table() {
   static const std::vector<std::pair<Method, std::string>> t = {
       {Method::FastSnarf, "fast-snarf"}, {Method::Snarf, "snarf"}, {Method::PoseOnet, "pose-onet"},
-      {Method::BackLbs, "back-lbs"},     {Method::BackD, "back-d"}, {Method::Piecewise, "piecewise"},
+      {Method::BackLbs, "back-lbs"},     {Method::BackD, "back-d"}, {Method::Piecewise, "piecewise"}, {Method::Ins, "ins"},
   };
   return t;
 }

@@ -15,6 +15,7 @@ std::shared_ptr<OccupancyModel> make_model(const TrainConfig& config, const Cano
   switch (options.method) {
     case Method::FastSnarf:
     case Method::Snarf:
+    case Method::Ins:
       return std::make_shared<ArticulatedOccupancyModel>(options);
     case Method::PoseOnet: {
       // The pose is the only thing that tells poses apart: always conditioned,

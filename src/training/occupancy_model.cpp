@@ -23,6 +23,10 @@ torch::Tensor OccupancyModel::canonical_logits(const torch::Tensor&, const torch
   fail("this method has no canonical shape (it predicts occupancy in posed space only)");
 }
 
+torch::Tensor OccupancyModel::repose(const torch::Tensor&, const torch::Tensor&) {
+  fail("this method has no map from canonical to posed space (it cannot re-pose a canonical mesh)");
+}
+
 std::vector<OccupancyModel::ParameterGroup> OccupancyModel::parameter_groups(double learning_rate) {
   return {{parameters(), learning_rate}};
 }

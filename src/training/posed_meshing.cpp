@@ -10,6 +10,7 @@
 #include "fskin/core/tensor_checks.h"
 #include "fskin/geometry/mesh_topology.h"
 #include "fskin/skeleton/lbs.h"
+#include "fskin/training/skinning_prior.h"
 #include "fskin/util/progress.h"
 
 namespace fskin {
@@ -37,7 +38,7 @@ void check_skeleton(const CanonicalSkeleton& skeleton) {
   expect_shape(skeleton.joints, {-1, 3}, "meshing: skeleton joints");
 }
 
-void prepare_for_inference(ArticulatedOccupancyModel& model) {
+void prepare_for_inference(OccupancyModel& model) {
   model.train(false);
   model.freeze_for_inference();
 }
@@ -53,7 +54,7 @@ MeshingResult extract(const ScalarField& field, const Box& box, const PosedMeshi
 
 }  // namespace
 
-Box posed_meshing_box(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton, const torch::Tensor& bones,
+Box posed_meshing_box(OccupancyModel& model, const CanonicalSkeleton& skeleton, const torch::Tensor& bones,
                       double padding) {
   check_skeleton(skeleton);
   const int64_t J = skeleton.joints.size(0);
@@ -62,7 +63,11 @@ Box posed_meshing_box(ArticulatedOccupancyModel& model, const CanonicalSkeleton&
   prepare_for_inference(model);
   const auto extent = skeleton.extent.to(torch::kFloat32).unsqueeze(0);  // [1, M, 3]
   const auto b = bones.to(torch::kFloat32).unsqueeze(0);
-  const auto skinned = linear_blend_skinning(extent, model.skinning_weights(extent), b)[0];
+  // The model's own canonical skinning weights; methods without any (the
+  // posed-space baselines) use the skeleton's nearest-bone prior instead.
+  auto* field = model.canonical_skinning_field();
+  const auto weights = field != nullptr ? field->weights(extent) : nearest_bone_weights(skeleton, extent[0]).unsqueeze(0);
+  const auto skinned = linear_blend_skinning(extent, weights, b)[0];
   const auto joints = transform_points(bones.to(torch::kFloat32), skeleton.joints.to(torch::kFloat32));
   return padded_bounds(torch::cat({skinned, joints}), padding);
 }
@@ -73,7 +78,7 @@ Box canonical_meshing_box(const CanonicalSkeleton& skeleton, double padding) {
                        padding);
 }
 
-MeshingResult mesh_posed(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+MeshingResult mesh_posed(OccupancyModel& model, const CanonicalSkeleton& skeleton,
                          const torch::Tensor& bones, const torch::Tensor& pose, const PosedMeshingOptions& options,
                          const MiseProgress& progress) {
   const auto start = Clock::now();
@@ -88,7 +93,7 @@ MeshingResult mesh_posed(ArticulatedOccupancyModel& model, const CanonicalSkelet
   return extract(field, box, options, progress, start);
 }
 
-MeshingResult mesh_canonical(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+MeshingResult mesh_canonical(OccupancyModel& model, const CanonicalSkeleton& skeleton,
                              const torch::Tensor& pose, const PosedMeshingOptions& options,
                              const MiseProgress& progress) {
   const auto start = Clock::now();
@@ -103,7 +108,7 @@ MeshingResult mesh_canonical(ArticulatedOccupancyModel& model, const CanonicalSk
   return extract(field, box, options, progress, start);
 }
 
-void mesh_pose_sequence(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+void mesh_pose_sequence(OccupancyModel& model, const CanonicalSkeleton& skeleton,
                         const torch::Tensor& bones, const torch::Tensor& poses, const PosedMeshingOptions& options,
                         const std::function<void(int64_t, MeshingResult&&)>& on_mesh, bool progress) {
   const int64_t J = skeleton.joints.size(0);
@@ -117,6 +122,26 @@ void mesh_pose_sequence(ArticulatedOccupancyModel& model, const CanonicalSkeleto
     bar.advance(1, status);
   }
   bar.finish();
+}
+
+torch::Tensor repose_vertices(OccupancyModel& model, const Mesh& canonical, const torch::Tensor& bones,
+                              int64_t batch, bool progress) {
+  canonical.validate("re-posing: canonical mesh");
+  expect_shape(bones, {-1, -1, 4, 4}, "re-posing: bones");
+  FSKIN_CHECK(batch >= 1, "re-posing: batch must be >= 1, got {}", batch);
+  torch::NoGradGuard no_grad;
+  prepare_for_inference(model);
+  const int64_t N = bones.size(0);
+  std::vector<torch::Tensor> frames;
+  ProgressBar bar("re-posing", N, progress);
+  for (int64_t begin = 0; begin < N; begin += batch) {
+    const int64_t n = std::min(batch, N - begin);
+    const auto x = canonical.vertices.to(torch::kFloat32).unsqueeze(0).expand({n, -1, 3}).contiguous();
+    frames.push_back(model.repose(x, bones.narrow(0, begin, n).to(torch::kFloat32)));
+    bar.advance(n);
+  }
+  bar.finish();
+  return torch::cat(frames);
 }
 
 }  // namespace fskin

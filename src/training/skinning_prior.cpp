@@ -44,7 +44,7 @@ double fit_skinning_prior(SkinningField& field, const CanonicalSkeleton& skeleto
                           double learning_rate, uint64_t seed) {
   FSKIN_CHECK(steps >= 0 && learning_rate > 0, "skinning prior: steps {} and learning rate {} out of range", steps,
               learning_rate);
-  const auto points = skinning_prior_points(skeleton, 8192, seed);
+  const auto points = skinning_prior_points(skeleton, 2048, seed);
   const auto target = nearest_bone_weights(skeleton, points);
   torch::optim::Adam adam(field.parameters(), torch::optim::AdamOptions(learning_rate));
   double loss_value = 0;

@@ -13,6 +13,8 @@ namespace fskin {
 
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TrainConfig, data, method, seed, steps, frames_per_batch, surface_points, uniform_points, learning_rate, grad_clip,
+    warmup_steps, warmup_factor, pin_layers, pin_per_bone_dim, pin_pose_hidden_dim, pin_space_hidden_dim,
+    pin_map_hidden_dim, pin_rotation, pin_learning_rate_factor,
     bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, skinning_prior_steps, checkpoint_every, keep_checkpoints,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
     pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, grid, part_hidden_dim, part_hidden_layers, start_bones,
@@ -92,6 +94,12 @@ void TrainConfig::validate() const {
   FSKIN_CHECK(max_iterations >= 0 && eval_chunk_points >= 1, "config: max_iterations and eval_chunk_points out of range");
   FSKIN_CHECK(start_bones == "smpl-training" || start_bones == "all" || start_bones.rfind("automatic:", 0) == 0,
               "config: start_bones '{}' must be smpl-training, all or automatic:K", start_bones);
+  FSKIN_CHECK(warmup_steps >= 0 && warmup_factor > 0 && warmup_factor <= 1,
+              "config: warmup_steps {} must be >= 0 and warmup_factor {} in (0, 1]", warmup_steps, warmup_factor);
+  FSKIN_CHECK(pin_layers >= 1 && pin_per_bone_dim >= 1 && pin_pose_hidden_dim >= 1 && pin_space_hidden_dim >= 1 &&
+                  pin_map_hidden_dim >= 1 && pin_learning_rate_factor > 0,
+              "config: pin_* sizes and pin_learning_rate_factor must be positive");
+  parse_rotation_encoding(pin_rotation);
   FSKIN_CHECK(part_hidden_dim >= 1 && part_hidden_layers >= 1, "config: part_hidden_dim and part_hidden_layers must be >= 1");
 }
 
@@ -124,7 +132,8 @@ ArticulatedModelOptions model_options(const TrainConfig& config, const Canonical
   occ.hidden_dim = config.occupancy_hidden_dim;
   occ.hidden_layers = config.occupancy_hidden_layers;
   occ.skip_layers = config.occupancy_skip_layers;
-  occ.pose_dim = config.pose_conditioning ? 3 * (num_bones - 1) : 0;
+  // INS keeps the canonical shape pose-free: pose effects live in its PINs.
+  occ.pose_dim = config.pose_conditioning && o.method != Method::Ins ? 3 * (num_bones - 1) : 0;
   occ.pose_embedding_dim = config.pose_embedding_dim;
   occ.pose_layer = config.pose_layer;
   occ.encoding_frequencies = config.encoding_frequencies;
@@ -139,6 +148,15 @@ ArticulatedModelOptions model_options(const TrainConfig& config, const Canonical
   o.deformer = o.method == Method::Snarf ? DeformerOptions::snarf() : DeformerOptions::fast_snarf();
   if (config.max_iterations > 0) o.deformer.max_iterations = static_cast<int>(config.max_iterations);
   o.deformer.start_bones = resolve_start_bones(config.start_bones, skeleton);
+  o.pin.num_layers = config.pin_layers;
+  o.pin.pose.num_bones = num_bones;
+  o.pin.pose.per_bone_dim = config.pin_per_bone_dim;
+  o.pin.pose.hidden_dim = config.pin_pose_hidden_dim;
+  o.pin.pose.rotation = parse_rotation_encoding(config.pin_rotation);
+  o.pin.coupling.embedding_dim = o.pin.pose.embedding_dim();
+  o.pin.coupling.space_hidden_dim = config.pin_space_hidden_dim;
+  o.pin.coupling.map_hidden_dim = config.pin_map_hidden_dim;
+  o.pin_learning_rate_factor = config.pin_learning_rate_factor;
   return o;
 }
 

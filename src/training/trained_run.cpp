@@ -19,9 +19,9 @@ TrainedRun TrainedRun::load(const std::string& run_dir, const std::string& data_
   run.config = TrainConfig::load(config_path, TrainConfig{});
   run.data_dir = data_dir.empty() ? run.config.data : data_dir;
   FSKIN_CHECK(!run.data_dir.empty(), "{} records no dataset; pass the dataset directory (--data)", config_path);
-  // The skeleton (and with it the model's voxel box) comes from the training
-  // frames, as in training.
-  const auto dataset = Dataset::load(run.data_dir, "train");
+  // The skeleton (and with it the model's voxel box) comes from the dataset,
+  // as in training.
+  const auto dataset = Dataset::load_canonical(run.data_dir);
   run.skeleton = canonical_skeleton(dataset);
   run.canonical_pose = dataset.canonical().pose.to(torch::kFloat32);
   run.model = load_trained_model(run_dir, run.skeleton, &run.step);

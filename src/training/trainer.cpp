@@ -30,6 +30,12 @@ uint64_t step_seed(uint64_t seed, int64_t step) {
   return z ^ (z >> 31);
 }
 
+double learning_rate_scale(const TrainConfig& config, int64_t step) {
+  if (step >= config.warmup_steps) return 1.0;
+  const double t = static_cast<double>(step) / static_cast<double>(config.warmup_steps);
+  return config.warmup_factor + (1.0 - config.warmup_factor) * t;
+}
+
 namespace {
 
 std::string config_path(const std::string& run_dir) { return (fs::path(run_dir) / "config.json").string(); }
@@ -106,8 +112,10 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
   OccupancyModel& model = *model_ptr;
   model.train(true);
   std::vector<torch::optim::OptimizerParamGroup> groups;
+  std::vector<double> base_rates;  // per group, before warm-up
   for (auto& group : model.parameter_groups(config.learning_rate)) {
     groups.emplace_back(group.parameters, std::make_unique<torch::optim::AdamOptions>(group.learning_rate));
+    base_rates.push_back(group.learning_rate);
   }
   torch::optim::Adam adam(std::move(groups), torch::optim::AdamOptions(config.learning_rate));
 
@@ -163,6 +171,10 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
     adam.zero_grad();
     loss.backward();
     if (config.grad_clip > 0) torch::nn::utils::clip_grad_norm_(model.parameters(), config.grad_clip);
+    const double rate_scale = learning_rate_scale(config, step);
+    for (size_t g = 0; g < adam.param_groups().size(); ++g) {
+      static_cast<torch::optim::AdamOptions&>(adam.param_groups()[g].options()).lr(base_rates[g] * rate_scale);
+    }
     adam.step();
     ++step;
 
@@ -176,7 +188,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
                            {"bce", bce_value},
                            {"bootstrap", bootstrap},
                            {"batch_iou", iou},
-                           {"lr", config.learning_rate},
+                           {"lr", config.learning_rate * rate_scale},
                            {"seconds", seconds},
                            {"points_per_s", static_cast<double>(batch.points.size(0) * batch.points.size(1)) / seconds},
                            {"deformer_s", prediction.deformer_seconds},

@@ -18,6 +18,7 @@ TEST(InputNormalization, MapsTheBoxOntoTheUnitCubeAlongItsLongestSide) {
   EXPECT_NEAR(u[0][1].item<float>(), -1.0f, 1e-5);
   EXPECT_NEAR(u[1][1].item<float>(), 1.0f, 1e-5);
   EXPECT_NEAR(u[1][0].item<float>(), 0.3f * 2.0f / 1.7f, 1e-5);
+  EXPECT_TRUE(torch::allclose(n.unapply(u), points, 1e-6, 1e-6));
 }
 
 TEST(InputNormalization, IdentityByDefaultAndErrorsNameTheProblem) {

@@ -4,6 +4,7 @@
 #include <torch/torch.h>
 
 #include "fskin/geometry/mesh_topology.h"
+#include "fskin/training/model_factory.h"
 #include "fskin/training/trainer.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
@@ -40,7 +41,8 @@ void expect_box_near(const Box& a, const Box& b, const std::array<double, 3>& sh
 
 TEST(PosedMeshing, BoxFollowsTheBones) {
   const SyntheticLimb limb({0.0});
-  ArticulatedOccupancyModel model(model_options(small_config(), limb.skeleton()));
+  auto model_ptr = make_model(small_config(), limb.skeleton());
+  OccupancyModel& model = *model_ptr;
   const Box canonical = canonical_meshing_box(limb.skeleton(), 0.1);
   // Extent x in [-0.75, 0.75], y and z in [-0.15, 0.15]: margin 0.15.
   expect_box_near(canonical, Box{{-0.9, -0.3, -0.3}, {0.9, 0.3, 0.3}}, {0, 0, 0});

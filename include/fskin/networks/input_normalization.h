@@ -16,7 +16,8 @@ struct InputNormalization {
 
   // The bounding box of points [M, 3] onto [-1, 1] along its longest side.
   static InputNormalization around(const torch::Tensor& points);
-  torch::Tensor apply(const torch::Tensor& x) const;  // [..., 3] -> [..., 3]
+  torch::Tensor apply(const torch::Tensor& x) const;    // [..., 3] -> [..., 3]
+  torch::Tensor unapply(const torch::Tensor& u) const;  // the inverse of apply
 };
 
 }  // namespace fskin

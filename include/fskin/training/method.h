@@ -13,6 +13,7 @@ enum class Method {
   BackLbs,    // "back-lbs": pose-conditioned skinning weights in posed space, inverse LBS
   BackD,      // "back-d": pose-conditioned displacement from posed to canonical space
   Piecewise,  // "piecewise": rigid parts, one occupancy network per bone, max over parts
+  Ins,        // "ins": invertible networks around the LBS, pose-free shape (INS)
 };
 
 Method parse_method(const std::string& name);  // throws fskin::Error listing the names

@@ -58,6 +58,11 @@ class OccupancyModel : public torch::nn::Module {
   // as condition; throws fskin::Error for methods without a canonical shape.
   virtual torch::Tensor canonical_logits(const torch::Tensor& x_canonical, const torch::Tensor& pose);
 
+  // Canonical points [B, V, 3] -> posed [B, V, 3] with bones [B, J, 4, 4],
+  // keeping vertex correspondences (INS eq. 19); throws fskin::Error for
+  // methods without a forward map from canonical space.
+  virtual torch::Tensor repose(const torch::Tensor& x_canonical, const torch::Tensor& bones);
+
   // The learned canonical skinning field, for the skeleton prior's warm start
   // (skinning_prior.h); nullptr for methods without one.
   virtual SkinningField* canonical_skinning_field() { return nullptr; }

@@ -23,7 +23,7 @@
 #include "fskin/data/point_sampling.h"
 #include "fskin/geometry/mesh.h"
 #include "fskin/geometry/mise.h"
-#include "fskin/training/articulated_occupancy_model.h"
+#include "fskin/training/occupancy_model.h"
 #include "fskin/training/batch_source.h"
 
 namespace fskin {
@@ -42,26 +42,33 @@ struct MeshingResult {
 };
 
 // The boxes described above; bones [J, 4, 4] canonical -> posed.
-Box posed_meshing_box(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+Box posed_meshing_box(OccupancyModel& model, const CanonicalSkeleton& skeleton,
                       const torch::Tensor& bones, double padding);
 Box canonical_meshing_box(const CanonicalSkeleton& skeleton, double padding);
 
 // The posed surface for bones [J, 4, 4] (canonical -> posed) and pose [J, 3]
 // (the pose condition). Puts the model in inference mode (frozen Fast-SNARF grid).
-MeshingResult mesh_posed(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+MeshingResult mesh_posed(OccupancyModel& model, const CanonicalSkeleton& skeleton,
                          const torch::Tensor& bones, const torch::Tensor& pose, const PosedMeshingOptions& options,
                          const MiseProgress& progress = {});
 
 // The canonical surface, conditioned on `pose` [J, 3] (the canonical pose).
-MeshingResult mesh_canonical(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+MeshingResult mesh_canonical(OccupancyModel& model, const CanonicalSkeleton& skeleton,
                              const torch::Tensor& pose, const PosedMeshingOptions& options,
                              const MiseProgress& progress = {});
 
 // One mesh per pose, bones [N, J, 4, 4] and poses [N, J, 3], in order;
 // `on_mesh(index, result)` receives each (to write it and let it go).
 // Progress bar over the poses when `progress`.
-void mesh_pose_sequence(ArticulatedOccupancyModel& model, const CanonicalSkeleton& skeleton,
+void mesh_pose_sequence(OccupancyModel& model, const CanonicalSkeleton& skeleton,
                         const torch::Tensor& bones, const torch::Tensor& poses, const PosedMeshingOptions& options,
                         const std::function<void(int64_t, MeshingResult&&)>& on_mesh, bool progress);
+
+// Re-posing (INS eq. 19): the vertices of one canonical mesh moved into every
+// pose by model.repose, so all frames share faces, vertex colours and vertex
+// correspondences. bones [N, J, 4, 4] -> vertices [N, V, 3] float32, computed
+// `batch` poses at a time.
+torch::Tensor repose_vertices(OccupancyModel& model, const Mesh& canonical, const torch::Tensor& bones,
+                              int64_t batch, bool progress);
 
 }  // namespace fskin

@@ -22,7 +22,11 @@ struct TrainConfig {
   int64_t surface_points = 1000;
   int64_t uniform_points = 125;
   double learning_rate = 1e-3;
-  double grad_clip = 0;  // max gradient norm; 0: none (Fast-SNARF), 0.1 (SNARF)
+  double grad_clip = 0;  // max gradient norm; 0: none (Fast-SNARF), 0.1 (SNARF), 4 (INS)
+  // Linear learning-rate warm-up from warmup_factor x to 1 x over warmup_steps
+  // (INS: 0.2, 2400 steps); 0 steps: none.
+  int64_t warmup_steps = 0;
+  double warmup_factor = 0.2;
   // Bootstrap losses (SNARF sec. 3.3) during the first epochs.
   double bootstrap_epochs = 1;
   int64_t bone_points_per_bone = 5;
@@ -45,6 +49,16 @@ struct TrainConfig {
   int64_t skinning_hidden_dim = 128;
   int64_t skinning_hidden_layers = 4;
   std::vector<int64_t> grid{16, 64, 64};
+  // INS: coupling layers per PIN, widths of the pose encoder (per bone) and of
+  // the coupling layers' SIREN and maps, rotation encoding, and the PINs'
+  // learning rate relative to learning_rate (paper: 18, 5 x 24 = 120, 0.1).
+  int64_t pin_layers = 18;
+  int64_t pin_per_bone_dim = 5;
+  int64_t pin_pose_hidden_dim = 128;
+  int64_t pin_space_hidden_dim = 64;
+  int64_t pin_map_hidden_dim = 32;
+  std::string pin_rotation = "euler";
+  double pin_learning_rate_factor = 0.1;
   // Piecewise baseline: one MLP per bone.
   int64_t part_hidden_dim = 64;
   int64_t part_hidden_layers = 3;

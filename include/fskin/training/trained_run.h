@@ -6,7 +6,7 @@
 #include <string>
 
 #include "fskin/data/dataset.h"
-#include "fskin/training/articulated_occupancy_model.h"
+#include "fskin/training/occupancy_model.h"
 #include "fskin/training/batch_source.h"
 #include "fskin/training/train_config.h"
 
@@ -18,7 +18,7 @@ struct TrainedRun {
   std::string data_dir;  // config.data, or the override
   CanonicalSkeleton skeleton;
   torch::Tensor canonical_pose;  // [J, 3] the dataset's canonical pose (canonical.npz)
-  std::shared_ptr<ArticulatedOccupancyModel> model;
+  std::shared_ptr<OccupancyModel> model;
   int64_t step = 0;
 
   // Throws fskin::Error naming `run_dir` when it is not a run directory, has no
