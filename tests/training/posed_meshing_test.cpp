@@ -8,29 +8,14 @@
 #include "fskin/training/trainer.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
+#include "training/tiny_training.h"
 
 namespace fskin {
 namespace {
 
 using testing::SyntheticLimb;
 
-TrainConfig small_config() {
-  TrainConfig c;
-  c.frames_per_batch = 2;
-  c.surface_points = 200;
-  c.uniform_points = 100;
-  c.learning_rate = 3e-3;
-  c.occupancy_hidden_dim = 32;
-  c.occupancy_hidden_layers = 3;
-  c.occupancy_skip_layers = {2};
-  c.pose_conditioning = false;
-  c.init_radius = 0.5;
-  c.skinning_hidden_dim = 32;
-  c.skinning_hidden_layers = 2;
-  c.grid = {8, 16, 16};
-  c.start_bones = "all";
-  return c;
-}
+TrainConfig small_config() { return testing::tiny_config(); }
 
 void expect_box_near(const Box& a, const Box& b, const std::array<double, 3>& shift) {
   for (int axis = 0; axis < 3; ++axis) {

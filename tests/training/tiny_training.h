@@ -33,6 +33,8 @@ inline TrainConfig tiny_config() {
   c.skinning_hidden_layers = 2;
   c.grid = {8, 16, 16};
   c.start_bones = "all";
+  c.encoding_frequencies = 0;
+  c.skinning_prior_steps = 0;
   return c;
 }
 
