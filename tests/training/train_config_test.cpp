@@ -28,6 +28,15 @@ TEST(TrainConfig, BadInputNamesTheProblem) {
   testing::expect_error([&] { TrainConfig::from_json("{", "my.json", TrainConfig{}); }, {"my.json", "not valid JSON"});
 }
 
+TEST(TrainConfig, ShippedConfigsLoad) {
+  // configs/*.json overlay the defaults; a renamed key would make them fail.
+  const auto ins = TrainConfig::load(std::string(FSKIN_CONFIGS_DIR) + "/ins-paper.json", TrainConfig::full());
+  EXPECT_EQ(ins.method, "ins");
+  EXPECT_EQ(ins.warmup_steps, 2400);
+  EXPECT_DOUBLE_EQ(ins.grad_clip, 4.0);
+  EXPECT_FALSE(ins.pose_conditioning);
+}
+
 TEST(TrainConfig, BootstrapLastsOneEpoch) {
   TrainConfig c;
   c.frames_per_batch = 8;
