@@ -5,16 +5,9 @@
 namespace fskin {
 
 BackwardDisplacementModel::BackwardDisplacementModel(const OccupancyNetworkOptions& occupancy,
-                                                     const BackwardDisplacementOptions& options)
+                                                     const BackwardWarpOptions& options)
     : BackwardWarpModel(occupancy), options_(options) {
-  FSKIN_CHECK(options.num_bones >= 2, "back-d: needs >= 2 bones, got {}", options.num_bones);
-  MlpOptions mlp;
-  mlp.input_dim = 3;
-  mlp.output_dim = 3;
-  mlp.hidden_dim = options.hidden_dim;
-  mlp.hidden_layers = options.hidden_layers;
-  mlp.condition_dim = 3 * (options.num_bones - 1);  // the pose condition, at the input
-  mlp.condition_layer = 0;
+  auto mlp = warp_mlp_options(options, 3);
   mlp.zero_output_init = true;
   displacement_ = register_module("displacement", Mlp(mlp));
 }
@@ -24,8 +17,7 @@ torch::Tensor BackwardDisplacementModel::to_canonical(const torch::Tensor& point
   FSKIN_CHECK(bones.size(1) == options_.num_bones, "back-d: {} bones, the model has {}", bones.size(1),
               options_.num_bones);
   const auto local = to_root_frame(points, bones);
-  const auto condition = pose_condition(pose).to(points.dtype()).unsqueeze(1).expand({-1, points.size(1), -1});
-  return local + displacement_->forward(options_.input.apply(local), condition);
+  return local + displacement_->forward(options_.input.apply(local), pointwise_condition(pose, points));
 }
 
 }  // namespace fskin

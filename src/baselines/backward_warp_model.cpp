@@ -1,5 +1,6 @@
 #include "fskin/baselines/backward_warp_model.h"
 
+#include "fskin/core/error.h"
 #include "fskin/training/bootstrap_losses.h"
 #include "fskin/util/stopwatch.h"
 
@@ -7,6 +8,22 @@ namespace fskin {
 
 BackwardWarpModel::BackwardWarpModel(const OccupancyNetworkOptions& occupancy) : occupancy_options_(occupancy) {
   occupancy_ = register_module("occupancy", OccupancyNetwork(occupancy));
+}
+
+MlpOptions BackwardWarpModel::warp_mlp_options(const BackwardWarpOptions& options, int64_t output_dim) {
+  FSKIN_CHECK(options.num_bones >= 2, "backward warp: needs >= 2 bones, got {}", options.num_bones);
+  MlpOptions mlp;
+  mlp.input_dim = 3;
+  mlp.output_dim = output_dim;
+  mlp.hidden_dim = options.hidden_dim;
+  mlp.hidden_layers = options.hidden_layers;
+  mlp.condition_dim = 3 * (options.num_bones - 1);
+  mlp.condition_layer = 0;
+  return mlp;
+}
+
+torch::Tensor BackwardWarpModel::pointwise_condition(const torch::Tensor& pose, const torch::Tensor& points) {
+  return pose_condition(pose).to(points.dtype()).unsqueeze(1).expand({-1, points.size(1), -1});
 }
 
 OccupancyPrediction BackwardWarpModel::predict(const torch::Tensor& points, const torch::Tensor& bones,

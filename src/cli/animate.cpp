@@ -28,6 +28,25 @@
 namespace fskin::cli {
 namespace {
 
+// What both run modes start from: the run, its meshing settings, the poses'
+// bone transforms (as the dataset computed them) and the output directory.
+struct RunPoses {
+  TrainedRun run;
+  PosedMeshingOptions options;
+  PoseSet poses;
+  torch::Tensor bones;  // [N, J, 4, 4]
+
+  static RunPoses load(const std::string& run_dir, const std::string& pose_path, const std::string& data,
+                       const std::string& body_model, const MeshingFlags& flags, const std::string& out) {
+    check_meshing_flags(flags);
+    RunPoses r{TrainedRun::load(run_dir, data), {}, PoseSet::load(pose_path), {}};
+    r.options = meshing_options(flags, r.run.config);
+    r.bones = DatasetPosing::load(r.run.data_dir, body_model).bone_transforms(r.poses, pose_path);
+    std::filesystem::create_directories(out);
+    return r;
+  }
+};
+
 // Re-posing: the canonical mesh once (MISE), coloured by arg-max skinning bone,
 // then every pose by moving its vertices (INS eq. 19): DIR/canonical.ply,
 // DIR/frame_0000.ply ..., DIR/animation.glb (one mesh, a morph target per
@@ -36,13 +55,10 @@ void repose_run_poses(const std::string& run_dir, const std::string& pose_path, 
                       const std::string& body_model, const MeshingFlags& flags, const std::string& out, double fps,
                       bool quiet) {
   namespace fs = std::filesystem;
-  check_meshing_flags(flags);
-  const auto poses = PoseSet::load(pose_path);
-  auto run = TrainedRun::load(run_dir, data);
-  const auto options = meshing_options(flags, run.config);
-  const auto bones = DatasetPosing::load(run.data_dir, body_model).bone_transforms(poses, pose_path);
-  fs::create_directories(out);
-  auto canonical = mesh_canonical(*run.model, run.skeleton, run.canonical_pose, options);
+  auto loaded = RunPoses::load(run_dir, pose_path, data, body_model, flags, out);
+  auto& run = loaded.run;
+  const auto& bones = loaded.bones;
+  auto canonical = mesh_canonical(*run.model, run.skeleton, run.canonical_pose, loaded.options);
   FSKIN_CHECK(canonical.mesh.num_faces() > 0, "animate: {} has an empty canonical surface", run_dir);
   if (auto* field = run.model->canonical_skinning_field()) {
     torch::NoGradGuard no_grad;
@@ -84,12 +100,11 @@ void repose_run_poses(const std::string& run_dir, const std::string& pose_path, 
 void mesh_run_poses(const std::string& run_dir, const std::string& pose_path, const std::string& data,
                     const std::string& body_model, const MeshingFlags& flags, const std::string& out, bool quiet) {
   namespace fs = std::filesystem;
-  check_meshing_flags(flags);
-  const auto poses = PoseSet::load(pose_path);
-  auto run = TrainedRun::load(run_dir, data);
-  const auto options = meshing_options(flags, run.config);
-  const auto bones = DatasetPosing::load(run.data_dir, body_model).bone_transforms(poses, pose_path);
-  fs::create_directories(out);
+  auto loaded = RunPoses::load(run_dir, pose_path, data, body_model, flags, out);
+  auto& run = loaded.run;
+  const auto& options = loaded.options;
+  const auto& bones = loaded.bones;
+  const auto& poses = loaded.poses;
   nlohmann::json frames = nlohmann::json::array();
   std::vector<double> seconds;
   int64_t evaluated = 0, dense = 0;

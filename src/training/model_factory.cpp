@@ -25,20 +25,12 @@ std::shared_ptr<OccupancyModel> make_model(const TrainConfig& config, const Cano
       occupancy.pose_layer = 0;
       return std::make_shared<PoseOnetModel>(occupancy);
     }
-    case Method::BackLbs: {
-      BackwardLbsOptions warp;
-      warp.num_bones = num_bones;
-      warp.hidden_dim = config.skinning_hidden_dim;
-      warp.hidden_layers = config.skinning_hidden_layers;
-      warp.input = options.skinning.input;
-      return std::make_shared<BackwardLbsModel>(options.occupancy, warp);
-    }
+    case Method::BackLbs:
     case Method::BackD: {
-      BackwardDisplacementOptions warp;
-      warp.num_bones = num_bones;
-      warp.hidden_dim = config.skinning_hidden_dim;
-      warp.hidden_layers = config.skinning_hidden_layers;
-      warp.input = options.skinning.input;
+      // The posed-space warp network is sized like the skinning network.
+      const BackwardWarpOptions warp{num_bones, config.skinning_hidden_dim, config.skinning_hidden_layers,
+                                     options.skinning.input};
+      if (options.method == Method::BackLbs) return std::make_shared<BackwardLbsModel>(options.occupancy, warp);
       return std::make_shared<BackwardDisplacementModel>(options.occupancy, warp);
     }
     case Method::Piecewise: {

@@ -6,9 +6,20 @@
 // it generalises poorly to unseen poses; SNARF's forward skinning does not.
 // Subclasses define the warp (backward_lbs.h, backward_displacement.h).
 #include "fskin/canonical/occupancy_network.h"
+#include "fskin/networks/input_normalization.h"
+#include "fskin/networks/mlp.h"
 #include "fskin/training/occupancy_model.h"
 
 namespace fskin {
+
+// The posed-space network of a backward warp: root-frame posed points (and
+// the pose condition, at the input) -> the warp's output.
+struct BackwardWarpOptions {
+  int64_t num_bones = 24;
+  int64_t hidden_dim = 128;
+  int64_t hidden_layers = 4;
+  InputNormalization input;  // root-frame posed points -> network coordinates
+};
 
 class BackwardWarpModel : public OccupancyModel {
  public:
@@ -21,6 +32,10 @@ class BackwardWarpModel : public OccupancyModel {
 
  protected:
   explicit BackwardWarpModel(const OccupancyNetworkOptions& occupancy);
+  // The warp MLP's options: 3 inputs + the pose condition at layer 0, `output_dim` outputs.
+  static MlpOptions warp_mlp_options(const BackwardWarpOptions& options, int64_t output_dim);
+  // The pose condition [B, 3 (J - 1)] broadcast to every point of points [B, N, 3].
+  static torch::Tensor pointwise_condition(const torch::Tensor& pose, const torch::Tensor& points);
   // Posed points [B, N, 3] -> one canonical point each [B, N, 3].
   virtual torch::Tensor to_canonical(const torch::Tensor& points, const torch::Tensor& bones,
                                      const torch::Tensor& pose) = 0;
