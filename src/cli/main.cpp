@@ -8,6 +8,7 @@
 
 #include "cli/commands.h"
 #include "fskin/core/error.h"
+#include "fskin/util/blas_threads.h"
 #include "fskin/version.h"
 
 int main(int argc, char** argv) {
@@ -33,6 +34,7 @@ int main(int argc, char** argv) {
   // Saturated softmax / Softplus(100) layers produce subnormal floats, which
   // x86 processes up to 100x slower; they carry no useful signal here.
   at::globalContext().setFlushDenormal(true);
+  fskin::use_single_threaded_blas();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

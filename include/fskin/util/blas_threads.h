@@ -1,0 +1,16 @@
+#pragma once
+
+namespace fskin {
+
+// Makes the BLAS library that LibTorch calls run each matrix product on the
+// calling thread, when that library is OpenBLAS (found at run time, so builds
+// against MKL or a GPU LibTorch are unaffected). Returns whether it did.
+//
+// Why: LibTorch already splits work across its own OpenMP threads. OpenBLAS's
+// pthread build keeps a second pool; on a few cores the two pools spin and
+// yield against each other. Measured on the 2-core CI machine: one Fast-SNARF
+// training step 0.65 s with both pools, 0.28 s with single-threaded BLAS
+// (docs/benchmarks.md, "CPU threads").
+bool use_single_threaded_blas();
+
+}  // namespace fskin
