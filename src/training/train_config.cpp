@@ -13,7 +13,7 @@ namespace fskin {
 
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TrainConfig, data, method, seed, steps, frames_per_batch, surface_points, uniform_points, learning_rate, grad_clip,
-    warmup_steps, warmup_factor, pin_layers, pin_per_bone_dim, pin_pose_hidden_dim, pin_space_hidden_dim,
+    warmup_steps, warmup_factor, decay_fraction, decay_factor, pin_layers, pin_per_bone_dim, pin_pose_hidden_dim, pin_space_hidden_dim,
     pin_map_hidden_dim, pin_rotation, pin_learning_rate_factor,
     bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, skinning_prior_steps, checkpoint_every, keep_checkpoints,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
@@ -100,6 +100,9 @@ void TrainConfig::validate() const {
               "config: start_bones '{}' must be smpl-training, all or automatic:K", start_bones);
   FSKIN_CHECK(warmup_steps >= 0 && warmup_factor > 0 && warmup_factor <= 1,
               "config: warmup_steps {} must be >= 0 and warmup_factor {} in (0, 1]", warmup_steps, warmup_factor);
+  FSKIN_CHECK(decay_fraction >= 0 && decay_fraction <= 1 && decay_factor > 0 && decay_factor <= 1,
+              "config: decay_fraction {} must be in [0, 1] and decay_factor {} in (0, 1]", decay_fraction,
+              decay_factor);
   FSKIN_CHECK(pin_layers >= 1 && pin_per_bone_dim >= 1 && pin_pose_hidden_dim >= 1 && pin_space_hidden_dim >= 1 &&
                   pin_map_hidden_dim >= 1 && pin_learning_rate_factor > 0,
               "config: pin_* sizes and pin_learning_rate_factor must be positive");

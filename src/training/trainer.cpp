@@ -31,9 +31,15 @@ uint64_t step_seed(uint64_t seed, int64_t step) {
 }
 
 double learning_rate_scale(const TrainConfig& config, int64_t step) {
-  if (step >= config.warmup_steps) return 1.0;
-  const double t = static_cast<double>(step) / static_cast<double>(config.warmup_steps);
-  return config.warmup_factor + (1.0 - config.warmup_factor) * t;
+  if (step < config.warmup_steps) {
+    const double t = static_cast<double>(step) / static_cast<double>(config.warmup_steps);
+    return config.warmup_factor + (1.0 - config.warmup_factor) * t;
+  }
+  const double decay_steps = config.decay_fraction * static_cast<double>(config.steps);
+  const double decay_start = static_cast<double>(config.steps) - decay_steps;
+  if (decay_steps <= 0 || static_cast<double>(step) <= decay_start) return 1.0;
+  const double t = std::min(1.0, (static_cast<double>(step) - decay_start) / decay_steps);
+  return config.decay_factor + (1.0 - config.decay_factor) * 0.5 * (1.0 + std::cos(M_PI * t));
 }
 
 namespace {

@@ -121,5 +121,25 @@ TEST(Trainer, StopSignalCheckpointsAndReturns) {
   testing::expect_error([&] { load_trained_model((run / "nothing").string(), limb.skeleton()); }, {"nothing"});
 }
 
+TEST(LearningRateSchedule, WarmsUpHoldsThenDecaysByCosineToTheFactor) {
+  TrainConfig config;
+  config.steps = 100;
+  config.warmup_steps = 10;
+  config.warmup_factor = 0.2;
+  config.decay_fraction = 0.4;
+  config.decay_factor = 0.1;
+  EXPECT_DOUBLE_EQ(learning_rate_scale(config, 0), 0.2);
+  EXPECT_DOUBLE_EQ(learning_rate_scale(config, 5), 0.6);
+  EXPECT_DOUBLE_EQ(learning_rate_scale(config, 10), 1.0);
+  EXPECT_DOUBLE_EQ(learning_rate_scale(config, 60), 1.0);  // the decay starts after step 60
+  EXPECT_NEAR(learning_rate_scale(config, 80), 0.55, 1e-12);  // half-way: the cosine's midpoint
+  EXPECT_NEAR(learning_rate_scale(config, 100), 0.1, 1e-12);
+  for (int64_t step = 61; step <= 100; ++step) {
+    EXPECT_LT(learning_rate_scale(config, step), learning_rate_scale(config, step - 1)) << step;
+  }
+  config.decay_fraction = 0;
+  EXPECT_DOUBLE_EQ(learning_rate_scale(config, 99), 1.0);
+}
+
 }  // namespace
 }  // namespace fskin

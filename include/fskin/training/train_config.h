@@ -29,6 +29,11 @@ struct TrainConfig {
   // (INS: 0.2, 2400 steps); 0 steps: none.
   int64_t warmup_steps = 0;
   double warmup_factor = 0.2;
+  // Cosine learning-rate decay to decay_factor x over the last decay_fraction
+  // of the steps (0: constant rate, the papers' setting). On the short CPU
+  // schedules the falling rate is what turns a noisy plateau into a fit.
+  double decay_fraction = 0;
+  double decay_factor = 0.1;
   // Bootstrap losses (SNARF sec. 3.3) during the first epochs.
   double bootstrap_epochs = 1;
   int64_t bone_points_per_bone = 5;

@@ -34,7 +34,8 @@ struct TrainResult {
 // Seed of everything random in step `step` of a run seeded with `seed`.
 uint64_t step_seed(uint64_t seed, int64_t step);
 
-// The learning-rate multiplier of step `step` (linear warm-up, then 1).
+// The learning-rate multiplier of step `step`: linear warm-up, 1, then a
+// cosine decay over the last decay_fraction of config.steps.
 double learning_rate_scale(const TrainConfig& config, int64_t step);
 
 TrainResult train(const TrainConfig& config, const BatchSource& source, const TrainOptions& options);
