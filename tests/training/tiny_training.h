@@ -35,6 +35,7 @@ inline TrainConfig tiny_config() {
   c.start_bones = "all";
   c.encoding_frequencies = 0;
   c.skinning_prior_steps = 0;
+  c.decay_fraction = 0;
   return c;
 }
 

@@ -16,7 +16,7 @@ struct TrainConfig {
   std::string data;  // dataset directory the run trains on (recorded for evaluation)
   std::string method = "fast-snarf";  // method.h: fast-snarf, snarf, pose-onet, back-lbs, back-d, piecewise
   uint64_t seed = 0;
-  int64_t steps = 300;
+  int64_t steps = 1000;  // the CPU demo (~8 min on 2 cores); full(): 45k
   // Batch: frames x (near-surface + uniform) points (papers: 8 x (2000 + 250)).
   int64_t frames_per_batch = 8;
   int64_t surface_points = 1000;
@@ -32,8 +32,9 @@ struct TrainConfig {
   // Cosine learning-rate decay to decay_factor x over the last decay_fraction
   // of the steps (0: constant rate, the papers' setting). On the short CPU
   // schedules the falling rate is what turns a noisy plateau into a fit.
-  double decay_fraction = 0;
-  double decay_factor = 0.1;
+  // Demo: the second half decays to 0.05 x; full(): 0.
+  double decay_fraction = 0.5;
+  double decay_factor = 0.05;
   // Bootstrap losses (SNARF sec. 3.3) during the first epochs.
   double bootstrap_epochs = 1;
   int64_t bone_points_per_bone = 5;
