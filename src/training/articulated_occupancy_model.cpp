@@ -102,16 +102,19 @@ torch::Tensor ArticulatedOccupancyModel::repose(const torch::Tensor& x_canonical
 }
 
 std::vector<OccupancyModel::ParameterGroup> ArticulatedOccupancyModel::parameter_groups(double learning_rate) {
-  if (!invertible()) return OccupancyModel::parameter_groups(learning_rate);
-  std::vector<torch::Tensor> pins, rest;
-  for (const auto& list : {pose_encoder_->parameters(), pin_canonical_->parameters(), pin_deformed_->parameters()}) {
-    pins.insert(pins.end(), list.begin(), list.end());
+  std::vector<torch::Tensor> pins, skinning = skinning_->parameters(), rest = occupancy_->parameters();
+  if (invertible()) {
+    for (const auto& list : {pose_encoder_->parameters(), pin_canonical_->parameters(), pin_deformed_->parameters()}) {
+      pins.insert(pins.end(), list.begin(), list.end());
+    }
   }
-  for (const auto& p : occupancy_->parameters()) rest.push_back(p);
-  for (const auto& p : skinning_->parameters()) rest.push_back(p);
-  FSKIN_CHECK(pins.size() + rest.size() == parameters().size(), "ins: parameter groups miss {} parameters",
-              parameters().size() - pins.size() - rest.size());
-  return {{rest, learning_rate}, {pins, learning_rate * options_.pin_learning_rate_factor}};
+  FSKIN_CHECK(pins.size() + skinning.size() + rest.size() == parameters().size(),
+              "{}: parameter groups miss {} parameters", method_name(options_.method),
+              parameters().size() - pins.size() - skinning.size() - rest.size());
+  std::vector<ParameterGroup> groups{{rest, learning_rate},
+                                     {skinning, learning_rate * options_.skinning_learning_rate_factor}};
+  if (invertible()) groups.push_back({pins, learning_rate * options_.pin_learning_rate_factor});
+  return groups;
 }
 
 void ArticulatedOccupancyModel::freeze_for_inference() {

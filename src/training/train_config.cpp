@@ -17,7 +17,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     pin_map_hidden_dim, pin_rotation, pin_learning_rate_factor,
     bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, skinning_prior_steps, checkpoint_every, keep_checkpoints,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
-    pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, grid, part_hidden_dim, part_hidden_layers, start_bones,
+    pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, grid, part_hidden_dim, part_hidden_layers, start_bones,
     max_iterations, eval_chunk_points)
 
 TrainConfig TrainConfig::full() {
@@ -105,8 +105,8 @@ void TrainConfig::validate() const {
               "config: decay_fraction {} must be in [0, 1] and decay_factor {} in (0, 1]", decay_fraction,
               decay_factor);
   FSKIN_CHECK(pin_layers >= 1 && pin_per_bone_dim >= 1 && pin_pose_hidden_dim >= 1 && pin_space_hidden_dim >= 1 &&
-                  pin_map_hidden_dim >= 1 && pin_learning_rate_factor > 0,
-              "config: pin_* sizes and pin_learning_rate_factor must be positive");
+                  pin_map_hidden_dim >= 1 && pin_learning_rate_factor > 0 && skinning_learning_rate_factor > 0,
+              "config: pin_* sizes and the pin / skinning learning-rate factors must be positive");
   parse_rotation_encoding(pin_rotation);
   FSKIN_CHECK(part_hidden_dim >= 1 && part_hidden_layers >= 1, "config: part_hidden_dim and part_hidden_layers must be >= 1");
 }
@@ -165,6 +165,7 @@ ArticulatedModelOptions model_options(const TrainConfig& config, const Canonical
   o.pin.coupling.space_hidden_dim = config.pin_space_hidden_dim;
   o.pin.coupling.map_hidden_dim = config.pin_map_hidden_dim;
   o.pin_learning_rate_factor = config.pin_learning_rate_factor;
+  o.skinning_learning_rate_factor = config.skinning_learning_rate_factor;
   return o;
 }
 

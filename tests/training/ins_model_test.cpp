@@ -82,10 +82,12 @@ TEST(InsModel, PinsTrainAtTheirOwnLearningRate) {
   const SyntheticLimb limb({0.0});
   ArticulatedOccupancyModel model(model_options(ins_config(), limb.skeleton()));
   const auto groups = model.parameter_groups(1e-3);
-  ASSERT_EQ(groups.size(), 2u);
+  ASSERT_EQ(groups.size(), 3u);  // occupancy, skinning, PINs + pose encoder
   EXPECT_DOUBLE_EQ(groups[0].learning_rate, 1e-3);
-  EXPECT_DOUBLE_EQ(groups[1].learning_rate, 1e-4);
-  EXPECT_EQ(groups[0].parameters.size() + groups[1].parameters.size(), model.parameters().size());
+  EXPECT_DOUBLE_EQ(groups[1].learning_rate, 1e-3);
+  EXPECT_DOUBLE_EQ(groups[2].learning_rate, 1e-4);
+  EXPECT_EQ(groups[0].parameters.size() + groups[1].parameters.size() + groups[2].parameters.size(),
+            model.parameters().size());
 }
 
 TEST(InsModel, LossFallsOnTheLimbWithWarmUp) {

@@ -34,6 +34,8 @@ struct ArticulatedModelOptions {
   // rate relative to the rest (paper: 1e-4 vs 1e-3).
   PinOptions pin;
   double pin_learning_rate_factor = 0.1;
+  // The skinning network's learning rate relative to the rest (papers: 1).
+  double skinning_learning_rate_factor = 1.0;
 };
 
 class ArticulatedOccupancyModel : public OccupancyModel {

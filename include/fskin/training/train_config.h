@@ -59,6 +59,8 @@ struct TrainConfig {
   // Skinning MLP and (Fast-SNARF) its voxel grid, depth/height/width = z/y/x.
   int64_t skinning_hidden_dim = 128;
   int64_t skinning_hidden_layers = 4;
+  // The skinning network's learning rate relative to learning_rate (papers: 1).
+  double skinning_learning_rate_factor = 1.0;
   // 8 x 32 x 32: nearly as good as 16 x 64 x 64 in Fast-SNARF's ablation, 8x fewer voxels.
   std::vector<int64_t> grid{8, 32, 32};
   // INS: coupling layers per PIN, widths of the pose encoder (per bone) and of

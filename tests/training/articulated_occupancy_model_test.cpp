@@ -1,0 +1,30 @@
+#include "fskin/training/articulated_occupancy_model.h"
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include "fskin/training/train_config.h"
+#include "training/synthetic_limb.h"
+#include "training/tiny_training.h"
+
+namespace fskin {
+namespace {
+
+TEST(ArticulatedOccupancyModel, SkinningNetworkHasItsOwnLearningRate) {
+  const testing::SyntheticLimb limb({0.0});
+  auto config = testing::tiny_config();
+  config.skinning_learning_rate_factor = 0.25;
+  ArticulatedOccupancyModel model(model_options(config, limb.skeleton()));
+  const auto groups = model.parameter_groups(2e-3);
+  ASSERT_EQ(groups.size(), 2u);  // occupancy, skinning
+  EXPECT_DOUBLE_EQ(groups[0].learning_rate, 2e-3);
+  EXPECT_DOUBLE_EQ(groups[1].learning_rate, 5e-4);
+  ASSERT_NE(model.canonical_skinning_field(), nullptr);
+  const auto skinning = model.canonical_skinning_field()->parameters();
+  ASSERT_EQ(groups[1].parameters.size(), skinning.size());
+  for (size_t k = 0; k < skinning.size(); ++k) EXPECT_TRUE(groups[1].parameters[k].is_same(skinning[k]));
+  EXPECT_EQ(groups[0].parameters.size() + groups[1].parameters.size(), model.parameters().size());
+}
+
+}  // namespace
+}  // namespace fskin
