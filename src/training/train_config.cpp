@@ -32,6 +32,8 @@ TrainConfig TrainConfig::full() {
   c.pose_layer = 6;  // Fast-SNARF's choice; SNARF used 4
   c.learning_rate = 1e-3;
   c.decay_fraction = 0;
+  c.warmup_steps = 0;
+  c.skinning_learning_rate_factor = 1.0;
   c.pose_conditioning = true;
   c.encoding_frequencies = 0;
   c.grid = {16, 64, 64};

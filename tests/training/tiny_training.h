@@ -36,6 +36,8 @@ inline TrainConfig tiny_config() {
   c.encoding_frequencies = 0;
   c.skinning_prior_steps = 0;
   c.decay_fraction = 0;
+  c.warmup_steps = 0;
+  c.skinning_learning_rate_factor = 1.0;
   return c;
 }
 
