@@ -96,6 +96,7 @@ TEST(InsModel, LossFallsOnTheLimbWithWarmUp) {
   config.steps = 120;
   config.checkpoint_every = 120;
   config.warmup_steps = 20;
+  config.warmup_factor = 0.2;
   config.grad_clip = 4.0;
   const auto run = testing::temp_dir("ins_limb");
   train(config, limb, {run.string(), false, false, nullptr});
