@@ -41,7 +41,7 @@ done
 # The canonical mesh once, coloured by the learned arg-max skinning bone, moved
 # into the unseen poses by the learned skinning (one glTF with morph targets).
 "$FSKIN" animate "$OUT/run-fast-snarf" --poses "$OUT/unseen_poses.npz" --repose --resolution 128 \
-  --fps 1 --quiet --out "$OUT/reposed"
+  --largest-component --fps 1 --quiet --out "$OUT/reposed"
 "$FSKIN" render --mesh "$OUT/reposed/canonical.ply" --view all --width 256 --height 384 \
   --out "$OUT/canonical_learned_bones.png"
 

@@ -39,6 +39,7 @@ CouplingLayer::CouplingLayer(std::vector<int64_t> moved, const CouplingLayerOpti
   siren.num_layers = options.space_layers;
   siren.first_omega = options.first_omega;
   siren.hidden_omega = options.hidden_omega;
+  siren.linear_output = options.space_linear_output;
   space_embedding_ = register_module("space_embedding", Siren(siren));
 }
 
@@ -58,9 +59,17 @@ torch::Tensor CouplingLayer::apply(const torch::Tensor& x, const torch::Tensor& 
   for (int64_t axis : moved_) a.push_back(x.select(-1, axis));
   for (int64_t axis : kept_) b.push_back(x.select(-1, axis));
   // Eq. 8-9: z_s from the kept coordinates, which forward and inverse share.
-  const auto space = space_embedding_->forward(torch::stack(b, -1));
-  const auto space_pose = space * pose_embedding.unsqueeze(1);
-  const auto y_a = transform(torch::stack(a, -1), space_pose, pose_embedding, inverse);
+  const auto x_b = torch::stack(b, -1);
+  Conditioning conditioning;
+  conditioning.pose = pose_embedding;
+  if (options_.space_linear_output) {
+    conditioning.space = space_embedding_->hidden(x_b);
+    const auto last = space_embedding_->output_layer();
+    conditioning.projection = {last->weight, last->bias};
+  } else {
+    conditioning.space = space_embedding_->forward(x_b);
+  }
+  const auto y_a = transform(torch::stack(a, -1), conditioning, inverse);
   std::vector<torch::Tensor> columns(3);
   for (size_t i = 0; i < moved_.size(); ++i) columns[moved_[i]] = y_a.select(-1, static_cast<int64_t>(i));
   for (size_t i = 0; i < kept_.size(); ++i) columns[kept_[i]] = b[i];
@@ -81,10 +90,9 @@ CouplingLayer2D::CouplingLayer2D(int64_t first, int64_t second, const CouplingLa
   translation_ = register_module("translation", OperationMap(map_options(2)));
 }
 
-torch::Tensor CouplingLayer2D::transform(const torch::Tensor& x_a, const torch::Tensor& space_pose,
-                                         const torch::Tensor& pose, bool inverse) {
-  const auto theta = rotation_->forward(space_pose, pose).squeeze(-1);
-  const auto t = translation_->forward(space_pose, pose);
+torch::Tensor CouplingLayer2D::transform(const torch::Tensor& x_a, const Conditioning& conditioning, bool inverse) {
+  const auto theta = evaluate(rotation_, conditioning).squeeze(-1);
+  const auto t = evaluate(translation_, conditioning);
   const auto c = torch::cos(theta), s = torch::sin(theta);
   if (!inverse) {  // eq. 5: y_a = R x_a + t
     const auto u = x_a.select(-1, 0), v = x_a.select(-1, 1);
@@ -101,9 +109,8 @@ CouplingLayer1D::CouplingLayer1D(int64_t axis, const CouplingLayerOptions& optio
   translation_ = register_module("translation", OperationMap(map_options(1)));
 }
 
-torch::Tensor CouplingLayer1D::transform(const torch::Tensor& x_a, const torch::Tensor& space_pose,
-                                         const torch::Tensor& pose, bool inverse) {
-  const auto t = translation_->forward(space_pose, pose);  // eq. 12
+torch::Tensor CouplingLayer1D::transform(const torch::Tensor& x_a, const Conditioning& conditioning, bool inverse) {
+  const auto t = evaluate(translation_, conditioning);  // eq. 12
   return inverse ? x_a - t : x_a + t;
 }
 

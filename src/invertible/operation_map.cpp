@@ -30,19 +30,32 @@ OperationMapImpl::OperationMapImpl(const OperationMapOptions& o) : options_(o) {
   last_->weight.zero_();
 }
 
-torch::Tensor OperationMapImpl::evaluate(const torch::Tensor& space_pose, const torch::Tensor& pose) {
-  auto h = torch::softplus(first_space_pose_->forward(space_pose) + first_pose_->forward(pose).unsqueeze(-2),
-                           100.0, 20.0);
+torch::Tensor OperationMapImpl::evaluate(torch::Tensor h) {
+  h = torch::softplus(h, 100.0, 20.0);
   for (auto& layer : hidden_) h = torch::softplus(layer->forward(h), 100.0, 20.0);
   return last_->forward(h);
 }
 
-torch::Tensor OperationMapImpl::forward(const torch::Tensor& space_pose, const torch::Tensor& pose) {
+torch::Tensor OperationMapImpl::forward(const torch::Tensor& space, const torch::Tensor& pose,
+                                        const SpaceProjection& projection) {
   const int64_t e = options_.embedding_dim;
-  expect_shape(space_pose, {-1, -1, e}, "OperationMap: space-pose embedding");
-  expect_shape(pose, {space_pose.size(0), e}, "OperationMap: pose embedding");
-  const auto zero_pose = torch::zeros({1, e}, pose.options());
-  return evaluate(space_pose, pose) - evaluate(zero_pose.unsqueeze(1), zero_pose);
+  const bool projected = projection.weight.defined();
+  if (projected) {
+    expect_shape(projection.weight, {e, -1}, "OperationMap: space projection weight");
+    expect_shape(projection.bias, {e}, "OperationMap: space projection bias");
+  }
+  expect_shape(space, {-1, -1, projected ? projection.weight.size(1) : e},
+               projected ? "OperationMap: space features" : "OperationMap: space embedding");
+  expect_shape(pose, {space.size(0), e}, "OperationMap: pose embedding");
+  // Per frame: W_a diag(z_p) [B, hidden, E], then (with a projection) times P.
+  const auto& w_a = first_space_pose_->weight;
+  auto folded = w_a.unsqueeze(0) * pose.unsqueeze(1);
+  if (projected) folded = torch::matmul(folded, projection.weight);
+  auto offset = first_pose_->forward(pose) + first_space_pose_->bias;  // W_b z_p + b [B, hidden]
+  if (projected) offset = offset + torch::matmul(pose * projection.bias, w_a.t());
+  const auto pre_activation = torch::matmul(space, folded.transpose(1, 2)) + offset.unsqueeze(1);
+  // Centring: at z_p = 0 the pre-activation is b for every point.
+  return evaluate(pre_activation) - evaluate(first_space_pose_->bias.view({1, 1, -1}));
 }
 
 }  // namespace fskin

@@ -93,15 +93,26 @@ std::string read_checkpoint_payload(const std::string& path) {
 std::optional<std::string> load_latest_checkpoint(const std::string& dir,
                                                   const ArchiveReader& read) {
   for (const auto& path : list_checkpoints(dir)) {
+    torch::serialize::InputArchive archive;
     try {
       const std::string payload = read_checkpoint_payload(path);
-      torch::serialize::InputArchive archive;
       archive.load_from(payload.data(), payload.size());
-      read(archive);
-      return path;
     } catch (const std::exception& e) {
       std::fprintf(stderr, "fskin: skipping damaged checkpoint: %s\n", e.what());
+      continue;
     }
+    // An intact file that does not fit the reader (another model or fskin
+    // version) is an error, not damage: falling back to an older checkpoint
+    // would silently lose training.
+    try {
+      read(archive);
+    } catch (const c10::Error& e) {
+      throw Error(fmt::format("{}: intact checkpoint that does not fit this model: {}", path,
+                              e.what_without_backtrace()));
+    } catch (const std::exception& e) {
+      throw Error(fmt::format("{}: intact checkpoint that does not fit this model: {}", path, e.what()));
+    }
+    return path;
   }
   return std::nullopt;
 }

@@ -14,7 +14,7 @@ namespace fskin {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TrainConfig, data, method, seed, steps, frames_per_batch, surface_points, uniform_points, learning_rate, grad_clip,
     warmup_steps, warmup_factor, decay_fraction, decay_factor, pin_layers, pin_per_bone_dim, pin_pose_hidden_dim, pin_space_hidden_dim,
-    pin_map_hidden_dim, pin_rotation, pin_learning_rate_factor,
+    pin_space_output, pin_map_hidden_dim, pin_rotation, pin_learning_rate_factor,
     bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, skinning_prior_steps, checkpoint_every, keep_checkpoints,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
     pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, grid, part_hidden_dim, part_hidden_layers, start_bones,
@@ -110,6 +110,8 @@ void TrainConfig::validate() const {
                   pin_map_hidden_dim >= 1 && pin_learning_rate_factor > 0 && skinning_learning_rate_factor > 0,
               "config: pin_* sizes and the pin / skinning learning-rate factors must be positive");
   parse_rotation_encoding(pin_rotation);
+  FSKIN_CHECK(pin_space_output == "sine" || pin_space_output == "linear",
+              "config: pin_space_output must be \"sine\" or \"linear\", got \"{}\"", pin_space_output);
   FSKIN_CHECK(part_hidden_dim >= 1 && part_hidden_layers >= 1, "config: part_hidden_dim and part_hidden_layers must be >= 1");
 }
 
@@ -165,6 +167,7 @@ ArticulatedModelOptions model_options(const TrainConfig& config, const Canonical
   o.pin.pose.rotation = parse_rotation_encoding(config.pin_rotation);
   o.pin.coupling.embedding_dim = o.pin.pose.embedding_dim();
   o.pin.coupling.space_hidden_dim = config.pin_space_hidden_dim;
+  o.pin.coupling.space_linear_output = config.pin_space_output == "linear";
   o.pin.coupling.map_hidden_dim = config.pin_map_hidden_dim;
   o.pin_learning_rate_factor = config.pin_learning_rate_factor;
   o.skinning_learning_rate_factor = config.skinning_learning_rate_factor;

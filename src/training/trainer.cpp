@@ -71,7 +71,15 @@ std::optional<int64_t> load_state(const std::string& run_dir, OccupancyModel& mo
     if (optimizer) {
       torch::serialize::InputArchive optimizer_archive;
       archive.read("optimizer", optimizer_archive);
-      optimizer->load(optimizer_archive);
+      try {
+        optimizer->load(optimizer_archive);
+      } catch (const c10::Error& e) {
+        throw Error(fmt::format(
+            "its optimizer state does not match this model's {} parameter groups (checkpoints written before "
+            "the skinning network got its own learning rate have one group); it can still be evaluated, meshed "
+            "and animated, but not resumed ({})",
+            optimizer->param_groups().size(), e.what_without_backtrace()));
+      }
     }
     torch::Tensor t;
     archive.read("step", t);

@@ -9,12 +9,18 @@
 namespace fskin {
 namespace {
 
-// Every split of the PIN schedule: three 2D planes, three 1D axes.
+// Every split of the PIN schedule (three 2D planes, three 1D axes), each with
+// a sine and a linear SIREN output (the latter folded into the maps).
 std::vector<std::shared_ptr<CouplingLayer>> all_layers(torch::Dtype dtype, bool randomize) {
-  std::vector<std::shared_ptr<CouplingLayer>> layers = {
-      std::make_shared<CouplingLayer2D>(0, 1), std::make_shared<CouplingLayer2D>(1, 2),
-      std::make_shared<CouplingLayer2D>(2, 0), std::make_shared<CouplingLayer1D>(0),
-      std::make_shared<CouplingLayer1D>(1),    std::make_shared<CouplingLayer1D>(2)};
+  std::vector<std::shared_ptr<CouplingLayer>> layers;
+  for (bool linear : {false, true}) {
+    CouplingLayerOptions o;
+    o.space_linear_output = linear;
+    for (auto plane : {std::pair<int64_t, int64_t>{0, 1}, {1, 2}, {2, 0}}) {
+      layers.push_back(std::make_shared<CouplingLayer2D>(plane.first, plane.second, o));
+    }
+    for (int64_t axis : {0, 1, 2}) layers.push_back(std::make_shared<CouplingLayer1D>(axis, o));
+  }
   for (auto& layer : layers) {
     layer->to(dtype);
     if (randomize) testing::randomize_parameters(*layer);
@@ -25,7 +31,7 @@ std::vector<std::shared_ptr<CouplingLayer>> all_layers(torch::Dtype dtype, bool 
 std::string describe(const CouplingLayer& layer) {
   std::string s = layer.moved().size() == 2 ? "2D moving" : "1D moving";
   for (int64_t a : layer.moved()) s += " " + std::to_string(a);
-  return s;
+  return s + (layer.options().space_linear_output ? ", linear SIREN output" : ", sine SIREN output");
 }
 
 double max_abs(const torch::Tensor& t) { return t.abs().max().item<double>(); }

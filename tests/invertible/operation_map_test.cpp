@@ -55,19 +55,42 @@ TEST(OperationMap, IsAnMlpOnTheConcatenatedConditioning) {
     }
     return torch::linear(h, p["last.weight"]);
   };
-  const auto space_pose = torch::randn({2, 5, 10}, torch::kFloat64);
+  const auto space = torch::randn({2, 5, 10}, torch::kFloat64);
   const auto pose = torch::randn({2, 10}, torch::kFloat64);
-  const auto c = torch::cat({space_pose, pose.unsqueeze(1).expand({2, 5, 10})}, -1);
+  const auto c = torch::cat({space * pose.unsqueeze(1), pose.unsqueeze(1).expand({2, 5, 10})}, -1);
   const auto expected = mlp(c) - mlp(torch::zeros({20}, torch::kFloat64));
-  EXPECT_TRUE(torch::allclose(map->forward(space_pose, pose), expected, 1e-12, 1e-12));
+  EXPECT_TRUE(torch::allclose(map->forward(space, pose), expected, 1e-12, 1e-12));
+
+  // A linear projection z_s = f P^T + p folds into the first layer: the same
+  // function as projecting first, with the same gradients.
+  const auto features = torch::randn({2, 5, 7}, torch::kFloat64).requires_grad_();
+  const SpaceProjection projection{torch::randn({10, 7}, torch::kFloat64).requires_grad_(),
+                                   torch::randn({10}, torch::kFloat64).requires_grad_()};
+  const auto folded = map->forward(features, pose, projection);
+  const auto projected = map->forward(torch::linear(features, projection.weight, projection.bias), pose);
+  EXPECT_TRUE(torch::allclose(folded, projected, 1e-12, 1e-12));
+  const auto weights = torch::randn_like(folded);
+  const auto grads_folded = torch::autograd::grad({(folded * weights).sum()},
+                                                  {features, projection.weight, projection.bias, p["last.weight"]});
+  const auto grads_projected = torch::autograd::grad(
+      {(projected * weights).sum()}, {features, projection.weight, projection.bias, p["last.weight"]});
+  for (size_t i = 0; i < grads_folded.size(); ++i) {
+    EXPECT_TRUE(torch::allclose(grads_folded[i], grads_projected[i], 1e-10, 1e-12)) << "gradient " << i;
+  }
 }
 
 TEST(OperationMap, RejectsBadShapes) {
   OperationMap map(small_options(1));
   testing::expect_error([&] { map->forward(torch::zeros({2, 5, 9}), torch::zeros({2, 10})); },
-                        {"OperationMap: space-pose embedding", "[2, 5, 9]"});
+                        {"OperationMap: space embedding", "[2, 5, 9]"});
   testing::expect_error([&] { map->forward(torch::zeros({2, 5, 10}), torch::zeros({3, 10})); },
                         {"OperationMap: pose embedding", "[2, 10]", "[3, 10]"});
+  const SpaceProjection projection{torch::zeros({10, 7}), torch::zeros({10})};
+  testing::expect_error([&] { map->forward(torch::zeros({2, 5, 6}), torch::zeros({2, 10}), projection); },
+                        {"OperationMap: space features", "[*, *, 7]", "[2, 5, 6]"});
+  testing::expect_error(
+      [&] { map->forward(torch::zeros({2, 5, 7}), torch::zeros({2, 10}), {torch::zeros({9, 7}), torch::zeros({10})}); },
+      {"OperationMap: space projection weight", "[9, 7]"});
   auto o = small_options(1);
   o.hidden_layers = 0;
   testing::expect_error([&] { OperationMap{o}; }, {"OperationMapOptions", "hidden_layers"});

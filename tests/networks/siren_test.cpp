@@ -62,6 +62,31 @@ TEST(Siren, OutputIsABoundedEmbedding) {
   EXPECT_GT(near.abs().max().item<double>(), 0.05);
 }
 
+TEST(Siren, LinearOutputIsTheLastAffineMapOfTheHiddenFeatures) {
+  torch::manual_seed(3);
+  SirenOptions o;
+  o.input_dim = 2;
+  o.hidden_dim = 64;
+  o.output_dim = 40;
+  o.num_layers = 2;
+  o.linear_output = true;
+  Siren siren(o);
+  siren->to(torch::kFloat64);
+  const auto params = siren->named_parameters();
+  const auto x = torch::rand({3, 500, 2}, torch::kFloat64) * 2 - 1;
+  const auto h = torch::sin(30.0 * torch::linear(x, params["linear0.weight"], params["linear0.bias"]));
+  EXPECT_TRUE(torch::allclose(siren->hidden(x), h, 1e-12, 1e-12));
+  const auto y = siren->forward(x);
+  EXPECT_TRUE(torch::allclose(y, torch::linear(h, params["linear1.weight"], params["linear1.bias"]), 1e-12, 1e-12));
+  EXPECT_TRUE(torch::allclose(y, siren->output_layer()->forward(siren->hidden(x)), 0, 0));
+  // Initialised without the 1/w0 of a sine layer: W h has about unit variance,
+  // not 1/w0^2 (bias adds ~1/(3 in) on top).
+  const double variance = (y - params["linear1.bias"]).var().item<double>();
+  EXPECT_GT(variance, 0.5);
+  EXPECT_LT(variance, 2.0);
+  EXPECT_GT(y.abs().max().item<double>(), 1.0);  // not a bounded sine output
+}
+
 TEST(Siren, RejectsBadOptionsAndInputs) {
   SirenOptions o;
   o.num_layers = 0;
@@ -70,6 +95,11 @@ TEST(Siren, RejectsBadOptionsAndInputs) {
   o.first_omega = 0;
   testing::expect_error([&] { Siren{o}; }, {"SirenOptions", "first_omega"});
   o.first_omega = 30;
+  o.num_layers = 1;
+  o.linear_output = true;
+  testing::expect_error([&] { Siren{o}; }, {"SirenOptions", "linear_output", "num_layers >= 2"});
+  o.num_layers = 2;
+  o.linear_output = false;
   Siren siren(o);
   testing::expect_error([&] { siren->forward(torch::zeros({4, 2})); }, {"Siren", "[..., 3]", "[4, 2]"});
 }

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "fskin/util/atomic_file.h"
+#include "test_util.h"
 
 namespace fskin {
 namespace {
@@ -72,6 +73,21 @@ TEST(Checkpoint, CorruptedByteIsDetected) {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
   }
   EXPECT_FLOAT_EQ(read_value(dir), -1.0f);  // nothing intact to load
+}
+
+TEST(Checkpoint, IntactCheckpointThatDoesNotFitIsAnErrorNotDamage) {
+  // Falling back to an older checkpoint here would silently drop training.
+  const auto dir = fresh_dir("misfit");
+  save_checkpoint(dir.string(), 1, write_value(1.0f, 1));
+  const auto newest = save_checkpoint(dir.string(), 2, write_value(2.0f, 2));
+  testing::expect_error(
+      [&] {
+        load_latest_checkpoint(dir.string(), [](torch::serialize::InputArchive& a) {
+          torch::Tensor t;
+          a.read("a_key_this_version_does_not_write", t);
+        });
+      },
+      {newest, "intact checkpoint that does not fit this model", "a_key_this_version_does_not_write"});
 }
 
 TEST(Checkpoint, MissingDirectoryHasNoCheckpoints) {

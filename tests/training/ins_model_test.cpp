@@ -14,8 +14,9 @@ namespace {
 
 using testing::SyntheticLimb;
 
-TrainConfig ins_config() {
+TrainConfig ins_config(const std::string& space_output = "sine") {
   auto c = testing::tiny_config();
+  c.pin_space_output = space_output;
   c.method = "ins";
   c.pin_layers = 4;
   c.pin_per_bone_dim = 4;
@@ -36,10 +37,13 @@ void randomise(ArticulatedOccupancyModel& model) {
   }
 }
 
-TEST(InsModel, ZeroRelativePoseGivesTheCanonicalShape) {
+class InsModelBothSpaceOutputs : public ::testing::TestWithParam<std::string> {};
+INSTANTIATE_TEST_SUITE_P(SpaceOutput, InsModelBothSpaceOutputs, ::testing::Values("sine", "linear"));
+
+TEST_P(InsModelBothSpaceOutputs, ZeroRelativePoseGivesTheCanonicalShape) {
   const SyntheticLimb limb({0.0});
   torch::manual_seed(0);
-  ArticulatedOccupancyModel model(model_options(ins_config(), limb.skeleton()));
+  ArticulatedOccupancyModel model(model_options(ins_config(GetParam()), limb.skeleton()));
   randomise(model);
   model.train(false);
   model.freeze_for_inference();
@@ -52,13 +56,13 @@ TEST(InsModel, ZeroRelativePoseGivesTheCanonicalShape) {
   EXPECT_TRUE(torch::allclose(model.repose(points, identity), points, 1e-5, 1e-5));
 }
 
-TEST(InsModel, RePosedPointsAreFoundAgainByTheSearch) {
+TEST_P(InsModelBothSpaceOutputs, RePosedPointsAreFoundAgainByTheSearch) {
   // Canonical points moved by the inverse chain (eq. 19) and searched for by
   // the forward chain (eq. 16) come back: the PINs are exact inverses and the
   // Broyden search inverts the LBS.
   const SyntheticLimb limb({0.0});
   torch::manual_seed(1);
-  auto config = ins_config();
+  auto config = ins_config(GetParam());
   config.start_bones = "all";
   ArticulatedOccupancyModel model(model_options(config, limb.skeleton()));
   randomise(model);

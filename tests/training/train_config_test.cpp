@@ -25,6 +25,7 @@ TEST(TrainConfig, BadInputNamesTheProblem) {
   testing::expect_error([&] { c.set("stepz=3"); }, {"unknown config key 'stepz'"});
   testing::expect_error([&] { c.set("method=nasa"); }, {"unknown method 'nasa'"});
   testing::expect_error([&] { c.set("steps=\"many\""); }, {"--set steps", "wrong value type"});
+  testing::expect_error([&] { c.set("pin_space_output=\"cosine\""); }, {"pin_space_output", "\"cosine\""});
   testing::expect_error([&] { TrainConfig::from_json("{", "my.json", TrainConfig{}); }, {"my.json", "not valid JSON"});
 }
 

@@ -107,6 +107,34 @@ TEST(Trainer, TruncatedNewestCheckpointFallsBackToThePrevious) {
   expect_same_parameters(*a, *b);
 }
 
+TEST(Trainer, CheckpointWithOtherOptimizerGroupsIsRefusedOnResume) {
+  // Written like fskin before the skinning network had its own learning rate:
+  // one optimizer group for every parameter.
+  const SyntheticLimb limb(training_angles());
+  TrainConfig config = tiny_config();
+  config.steps = 2;
+  config.checkpoint_every = 2;
+  const auto run = testing::temp_dir("trainer_one_group");
+  train(config, limb, {run.string(), false, false, nullptr});
+  auto model = load_trained_model(run.string(), limb.skeleton());
+  torch::optim::Adam one_group(model->parameters(), torch::optim::AdamOptions(1e-3));
+  const auto path = save_checkpoint(
+      run.string(), 2,
+      [&](torch::serialize::OutputArchive& archive) {
+        torch::serialize::OutputArchive model_archive, optimizer_archive;
+        model->save(model_archive);
+        one_group.save(optimizer_archive);
+        archive.write("model", model_archive);
+        archive.write("optimizer", optimizer_archive);
+        archive.write("step", torch::tensor(int64_t{2}));
+      },
+      1);
+  load_trained_model(run.string(), limb.skeleton());  // evaluation still reads it
+  config.steps = 4;
+  testing::expect_error([&] { train(config, limb, {run.string(), true, false, nullptr}); },
+                        {path, "optimizer state does not match", "2 parameter groups", "not resumed"});
+}
+
 TEST(Trainer, StopSignalCheckpointsAndReturns) {
   const SyntheticLimb limb(training_angles());
   TrainConfig config = tiny_config();

@@ -6,7 +6,8 @@
 //                       rotation about that plane's origin by one angle theta;
 //   1D (eq. 12):        y_a = x_a + t,           x_a one coordinate;
 //   y_b = x_b in both. Parameters: theta = M_R(c), t = M_T(c) (operation_map.h)
-// with the conditioning c = [z_s * z_p, z_p] (eq. 9), z_s = SIREN(x_b) (eq. 8),
+// with the conditioning c = [z_s * z_p, z_p] (eq. 9, formed inside the maps),
+// z_s = SIREN(x_b) (eq. 8),
 // z_p the pose embedding of the frame (eq. 7, pose_encoding.h).
 //
 // Because x_b passes through unchanged, the inverse is closed-form (eq. 6):
@@ -32,6 +33,10 @@ struct CouplingLayerOptions {
   int64_t space_layers = 2;
   double first_omega = 30.0;
   double hidden_omega = 30.0;
+  // SIREN output layer linear instead of sine (siren.h); the operation maps then
+  // fold it into their first layer per frame (operation_map.h), which makes
+  // every layer several times cheaper per point (docs/ins.md, "Speed").
+  bool space_linear_output = false;
   // Rotation and translation maps: 2E -> map_hidden_layers x map_hidden_dim -> out.
   int64_t map_hidden_dim = 32;
   int64_t map_hidden_layers = 2;
@@ -53,11 +58,19 @@ class CouplingLayer : public torch::nn::Module {
 
  protected:
   CouplingLayer(std::vector<int64_t> moved, const CouplingLayerOptions& options);
-  // x_a [B, N, |moved|] -> y_a (or y_a -> x_a when `inverse`), given
-  // z_s * z_p [B, N, E] and z_p [B, E].
-  virtual torch::Tensor transform(const torch::Tensor& x_a, const torch::Tensor& space_pose,
-                                  const torch::Tensor& pose, bool inverse) = 0;
+  // What the operation maps read: the space embedding of x_b (or, with a
+  // linear SIREN output, the features and the projection that make it) and z_p.
+  struct Conditioning {
+    torch::Tensor space;          // [B, N, E], or [B, N, space_hidden_dim] with a projection
+    SpaceProjection projection;   // undefined without
+    torch::Tensor pose;           // [B, E]
+  };
+  // x_a [B, N, |moved|] -> y_a (or y_a -> x_a when `inverse`).
+  virtual torch::Tensor transform(const torch::Tensor& x_a, const Conditioning& conditioning, bool inverse) = 0;
   OperationMapOptions map_options(int64_t output_dim) const;
+  static torch::Tensor evaluate(OperationMap& map, const Conditioning& c) {
+    return map->forward(c.space, c.pose, c.projection);
+  }
 
  private:
   torch::Tensor apply(const torch::Tensor& x, const torch::Tensor& pose_embedding, bool inverse);
@@ -74,8 +87,7 @@ class CouplingLayer2D : public CouplingLayer {
   CouplingLayer2D(int64_t first, int64_t second, const CouplingLayerOptions& options = {});
 
  private:
-  torch::Tensor transform(const torch::Tensor& x_a, const torch::Tensor& space_pose, const torch::Tensor& pose,
-                          bool inverse) override;
+  torch::Tensor transform(const torch::Tensor& x_a, const Conditioning& conditioning, bool inverse) override;
   OperationMap rotation_{nullptr};     // M_R: angle in radians (eq. 10)
   OperationMap translation_{nullptr};  // M_T: 2D translation (eq. 11)
 };
@@ -86,8 +98,7 @@ class CouplingLayer1D : public CouplingLayer {
   CouplingLayer1D(int64_t axis, const CouplingLayerOptions& options = {});
 
  private:
-  torch::Tensor transform(const torch::Tensor& x_a, const torch::Tensor& space_pose, const torch::Tensor& pose,
-                          bool inverse) override;
+  torch::Tensor transform(const torch::Tensor& x_a, const Conditioning& conditioning, bool inverse) override;
   OperationMap translation_{nullptr};  // M_T: 1D translation
 };
 

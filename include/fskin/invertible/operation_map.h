@@ -8,9 +8,13 @@
 //   (section 4.4) contrasts [z_s, z_p] with multiply-then-concatenate; the
 //   concatenated half is z_p, not z_s: with z_s the zero pose would still give
 //   a space-varying conditioning, against the property eq. 9 is built for.
-// - The first layer is computed as W_a (z_s * z_p) + W_b z_p + b, which equals
-//   a Linear on the concatenation but evaluates the per-frame W_b z_p once per
-//   frame instead of once per point.
+// - The first layer, W_a (z_s * z_p) + W_b z_p + b (a Linear on the
+//   concatenation), is evaluated per frame as one matrix on the points' space
+//   features: (W_a diag(z_p)) z_s + (W_b z_p + b). When z_s comes out of a
+//   linear layer, z_s = P f + p (a SIREN with linear_output, siren.h), that
+//   layer folds in too, (W_a diag(z_p) P) f + W_a (p * z_p) + W_b z_p + b, so
+//   the E-wide z_s is never formed per point: per point the cost is F x hidden
+//   instead of (F + hidden) x E. Exact (same function, same gradients).
 // - Last layer zero-initialised (Appendix C.1), so a new coupling layer is the
 //   identity.
 // - Centred: the map returns MLP(c) - MLP(0). At the zero relative pose z_p = 0
@@ -22,6 +26,12 @@
 #include <vector>
 
 namespace fskin {
+
+// The linear last layer of a space embedding, z_s = f W^T + b.
+struct SpaceProjection {
+  torch::Tensor weight;  // [E, F]
+  torch::Tensor bias;    // [E]
+};
 
 struct OperationMapOptions {
   int64_t embedding_dim = 120;  // E: width of z_s and of z_p
@@ -35,14 +45,15 @@ struct OperationMapOptions {
 class OperationMapImpl : public torch::nn::Module {
  public:
   explicit OperationMapImpl(const OperationMapOptions& options);
-  // space_pose = z_s * z_p [B, N, E], pose = z_p [B, E] -> [B, N, output_dim];
-  // 0 (to rounding) where both are 0.
-  torch::Tensor forward(const torch::Tensor& space_pose, const torch::Tensor& pose);
+  // space = z_s [B, N, E], pose = z_p [B, E] -> [B, N, output_dim]; 0 (to
+  // rounding) where z_p = 0. With a projection, space holds the features
+  // f [B, N, F] and z_s = f W^T + b.
+  torch::Tensor forward(const torch::Tensor& space, const torch::Tensor& pose, const SpaceProjection& projection = {});
   const OperationMapOptions& options() const { return options_; }
 
  private:
-  // The uncentred MLP on c = [space_pose, pose].
-  torch::Tensor evaluate(const torch::Tensor& space_pose, const torch::Tensor& pose);
+  // The uncentred MLP after its first layer's affine map: pre-activation [..., hidden] -> [..., output_dim].
+  torch::Tensor evaluate(torch::Tensor pre_activation);
 
   OperationMapOptions options_;
   torch::nn::Linear first_space_pose_{nullptr};  // W_a, b

@@ -28,7 +28,9 @@ std::string save_checkpoint(const std::string& dir, int64_t step, const ArchiveW
 std::vector<std::string> list_checkpoints(const std::string& dir);
 
 // Loads the newest checkpoint that is intact, calling `read` on it; damaged ones
-// are reported on stderr and skipped. Returns its path, or nullopt if none.
+// (bad framing, CRC, archive) are reported on stderr and skipped. Returns its
+// path, or nullopt if none. Throws fskin::Error naming the file when `read`
+// throws on an intact one.
 std::optional<std::string> load_latest_checkpoint(const std::string& dir,
                                                   const ArchiveReader& read);
 

@@ -74,6 +74,9 @@ struct TrainConfig {
   int64_t pin_per_bone_dim = 5;
   int64_t pin_pose_hidden_dim = 128;
   int64_t pin_space_hidden_dim = 64;
+  // SIREN output layer: "sine" (bounded embedding) or "linear" (the SIREN
+  // paper's; folds into the maps, several times faster, docs/ins.md).
+  std::string pin_space_output = "sine";
   int64_t pin_map_hidden_dim = 32;
   std::string pin_rotation = "euler";
   double pin_learning_rate_factor = 0.1;
