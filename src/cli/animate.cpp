@@ -197,7 +197,7 @@ void register_animate(CLI::App& app) {
     if (!opt->run.empty()) {
       FSKIN_CHECK(opt->pose.empty() && !opt->color_by_bone,
                   "animate RUN --poses: --pose and --color-by-bone belong to the glTF modes");
-      const auto method = TrainConfig::load((std::filesystem::path(opt->run) / "config.json").string(), TrainConfig{})
+      const auto method = TrainConfig::load_run((std::filesystem::path(opt->run) / "config.json").string())
                               .method;
       if (opt->repose || (method == "ins" && !opt->per_pose)) {
         repose_run_poses(opt->run, opt->run_poses, opt->data, opt->model, opt->meshing, opt->out, opt->fps,

@@ -34,7 +34,7 @@ void register_train(CLI::App& app) {
   cmd->callback([opt] {
     const auto saved = (std::filesystem::path(opt->out) / "config.json").string();
     TrainConfig config = opt->full ? TrainConfig::full() : TrainConfig{};
-    if (opt->resume && std::filesystem::exists(saved)) config = TrainConfig::load(saved, config);
+    if (opt->resume && std::filesystem::exists(saved)) config = TrainConfig::load_run(saved);
     if (!opt->config.empty()) config = TrainConfig::load(opt->config, config);
     if (!opt->data.empty()) config.data = std::filesystem::absolute(opt->data).string();
     if (!opt->method.empty()) config.method = opt->method;

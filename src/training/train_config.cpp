@@ -42,14 +42,23 @@ TrainConfig TrainConfig::full() {
 
 std::string TrainConfig::to_json() const { return nlohmann::json(*this).dump(2) + "\n"; }
 
-TrainConfig TrainConfig::from_json(const std::string& text, const std::string& context, const TrainConfig& base) {
-  nlohmann::json overlay;
+namespace {
+
+nlohmann::json parse_object(const std::string& text, const std::string& context) {
+  nlohmann::json object;
   try {
-    overlay = nlohmann::json::parse(text);
+    object = nlohmann::json::parse(text);
   } catch (const nlohmann::json::exception& e) {
     fail("{}: not valid JSON ({})", context, e.what());
   }
-  FSKIN_CHECK(overlay.is_object(), "{}: the config must be a JSON object", context);
+  FSKIN_CHECK(object.is_object(), "{}: the config must be a JSON object", context);
+  return object;
+}
+
+}  // namespace
+
+TrainConfig TrainConfig::from_json(const std::string& text, const std::string& context, const TrainConfig& base) {
+  const nlohmann::json overlay = parse_object(text, context);
   nlohmann::json merged = base;
   for (const auto& [key, value] : overlay.items()) {
     FSKIN_CHECK(merged.contains(key), "{}: unknown config key '{}'", context, key);
@@ -67,6 +76,18 @@ TrainConfig TrainConfig::from_json(const std::string& text, const std::string& c
 
 TrainConfig TrainConfig::load(const std::string& path, const TrainConfig& base) {
   return from_json(read_file(path), path, base);
+}
+
+TrainConfig TrainConfig::load_run(const std::string& path) {
+  // Keys added after run directories were first written, with the value a run
+  // written without the key used.
+  static const std::vector<std::pair<std::string, nlohmann::json>> kBeforeTheKeyExisted = {
+      {"pin_space_output", "sine"}};
+  nlohmann::json saved = parse_object(read_file(path), path);
+  for (const auto& [key, value] : kBeforeTheKeyExisted) {
+    if (!saved.contains(key)) saved[key] = value;
+  }
+  return from_json(saved.dump(), path, TrainConfig{});
 }
 
 void TrainConfig::set(const std::string& assignment) {

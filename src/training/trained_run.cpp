@@ -16,7 +16,7 @@ TrainedRun TrainedRun::load(const std::string& run_dir, const std::string& data_
               run_dir);
   TrainedRun run;
   run.dir = run_dir;
-  run.config = TrainConfig::load(config_path, TrainConfig{});
+  run.config = TrainConfig::load_run(config_path);
   run.data_dir = data_dir.empty() ? run.config.data : data_dir;
   FSKIN_CHECK(!run.data_dir.empty(), "{} records no dataset; pass the dataset directory (--data)", config_path);
   // The skeleton (and with it the model's voxel box) comes from the dataset,

@@ -223,7 +223,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
 
 std::shared_ptr<OccupancyModel> load_trained_model(const std::string& run_dir, const CanonicalSkeleton& skeleton,
                                                    int64_t* step) {
-  const auto config = TrainConfig::load(config_path(run_dir), TrainConfig{});
+  const auto config = TrainConfig::load_run(config_path(run_dir));
   auto model = make_model(config, skeleton);
   const auto loaded = load_state(run_dir, *model, nullptr);
   FSKIN_CHECK(loaded.has_value(), "{}: no intact checkpoint (was the run trained?)", run_dir);

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <nlohmann/json.hpp>
+
 #include "test_util.h"
 
 namespace fskin {
@@ -36,6 +39,20 @@ TEST(TrainConfig, ShippedConfigsLoad) {
   EXPECT_EQ(ins.warmup_steps, 2400);
   EXPECT_DOUBLE_EQ(ins.grad_clip, 4.0);
   EXPECT_FALSE(ins.pose_conditioning);
+}
+
+TEST(TrainConfig, RunConfigsWrittenBeforeAKeyExistedKeepTheirBehaviour) {
+  // An INS run saved before pin_space_output existed used the sine output;
+  // today's default (linear) would load its checkpoint as a different function.
+  auto saved = nlohmann::json::parse(TrainConfig{}.to_json());
+  saved.erase("pin_space_output");
+  const auto path = testing::temp_dir("old_run_config") / "config.json";
+  std::ofstream(path) << saved.dump();
+  EXPECT_EQ(TrainConfig::load_run(path.string()).pin_space_output, "sine");
+  EXPECT_EQ(TrainConfig::load(path.string(), TrainConfig{}).pin_space_output, "linear");  // an overlay: default
+  saved["pin_space_output"] = "linear";
+  std::ofstream(path) << saved.dump();
+  EXPECT_EQ(TrainConfig::load_run(path.string()).pin_space_output, "linear");
 }
 
 TEST(TrainConfig, BootstrapLastsOneEpoch) {

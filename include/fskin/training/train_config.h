@@ -74,9 +74,10 @@ struct TrainConfig {
   int64_t pin_per_bone_dim = 5;
   int64_t pin_pose_hidden_dim = 128;
   int64_t pin_space_hidden_dim = 64;
-  // SIREN output layer: "sine" (bounded embedding) or "linear" (the SIREN
-  // paper's; folds into the maps, several times faster, docs/ins.md).
-  std::string pin_space_output = "sine";
+  // SIREN output layer: "linear" (the SIREN paper's; folds into the maps,
+  // 2-3x faster re-posing and training, docs/ins.md) or "sine" (a bounded
+  // embedding; fskin's default before session 4).
+  std::string pin_space_output = "linear";
   int64_t pin_map_hidden_dim = 32;
   std::string pin_rotation = "euler";
   double pin_learning_rate_factor = 0.1;
@@ -97,6 +98,11 @@ struct TrainConfig {
   // keys are errors naming `context`.
   static TrainConfig from_json(const std::string& text, const std::string& context, const TrainConfig& base);
   static TrainConfig load(const std::string& path, const TrainConfig& base);
+  // A run directory's saved config.json (complete, as `fskin train` writes it).
+  // Keys added to fskin after that run was written take the value that
+  // reproduces the run's behaviour, not today's default (pin_space_output:
+  // "sine" before the linear output became the default).
+  static TrainConfig load_run(const std::string& path);
   // Applies "key=value" (value in JSON syntax, or a bare string).
   void set(const std::string& assignment);
   void validate() const;
