@@ -17,7 +17,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     pin_space_output, pin_map_hidden_dim, pin_rotation, pin_learning_rate_factor,
     bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, skinning_prior_steps, checkpoint_every, keep_checkpoints,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
-    pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, grid, part_hidden_dim, part_hidden_layers, start_bones,
+    pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, canonical_sparsity_weight,
+    canonical_sparsity_points, grid, part_hidden_dim, part_hidden_layers, start_bones,
     max_iterations, eval_chunk_points)
 
 TrainConfig TrainConfig::full() {
@@ -130,6 +131,10 @@ void TrainConfig::validate() const {
   FSKIN_CHECK(pin_layers >= 1 && pin_per_bone_dim >= 1 && pin_pose_hidden_dim >= 1 && pin_space_hidden_dim >= 1 &&
                   pin_map_hidden_dim >= 1 && pin_learning_rate_factor > 0 && skinning_learning_rate_factor > 0,
               "config: pin_* sizes and the pin / skinning learning-rate factors must be positive");
+  FSKIN_CHECK(canonical_sparsity_weight >= 0 && std::isfinite(canonical_sparsity_weight) &&
+                  canonical_sparsity_points >= 1,
+              "config: canonical_sparsity_weight ({}) must be >= 0 and canonical_sparsity_points ({}) >= 1",
+              canonical_sparsity_weight, canonical_sparsity_points);
   parse_rotation_encoding(pin_rotation);
   FSKIN_CHECK(pin_space_output == "sine" || pin_space_output == "linear",
               "config: pin_space_output must be \"sine\" or \"linear\", got \"{}\"", pin_space_output);

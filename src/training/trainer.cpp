@@ -12,8 +12,10 @@
 
 #include "fskin/core/error.h"
 #include "fskin/training/bootstrap_losses.h"
+#include "fskin/training/canonical_sparsity.h"
 #include "fskin/training/checkpoint.h"
 #include "fskin/training/model_factory.h"
+#include "fskin/training/posed_meshing.h"
 #include "fskin/training/skinning_prior.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/util/progress.h"
@@ -157,6 +159,8 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
   result.first_step = step;
   result.skinning_prior_loss = result_prior_loss;
   const int64_t bootstrap_steps = config.bootstrap_steps(source.num_frames());
+  const bool use_sparsity = config.canonical_sparsity_weight > 0 && model.has_canonical_shape();
+  const Box canonical_box = use_sparsity ? canonical_meshing_box(skeleton, PosedMeshingOptions{}.padding) : Box{};
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar("train", std::max<int64_t>(config.steps - step, 0), options.progress);
   int64_t saved_step = options.resume ? step : -1;
@@ -182,6 +186,15 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
         loss = loss + extra;
       }
     }
+    double sparsity = 0;
+    if (use_sparsity) {
+      auto generator = at::make_generator<at::CPUGeneratorImpl>(seed ^ 0x5bd1e995u);  // not the bootstrap's stream
+      const auto prior = config.canonical_sparsity_weight *
+                         canonical_sparsity_loss(model, canonical_box, batch.pose, config.canonical_sparsity_points,
+                                                 generator);
+      sparsity = prior.item<double>();
+      loss = loss + prior;
+    }
     adam.zero_grad();
     loss.backward();
     if (config.grad_clip > 0) torch::nn::utils::clip_grad_norm_(model.parameters(), config.grad_clip);
@@ -198,9 +211,10 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
     if (step == result.first_step + 1) result.first_loss = bce_value;
     result.last_loss = bce_value;
     nlohmann::json line = {{"step", step},
-                           {"loss", bce_value + bootstrap},
+                           {"loss", bce_value + bootstrap + sparsity},
                            {"bce", bce_value},
                            {"bootstrap", bootstrap},
+                           {"sparsity", sparsity},
                            {"batch_iou", iou},
                            {"lr", config.learning_rate * rate_scale},
                            {"seconds", seconds},

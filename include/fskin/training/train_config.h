@@ -67,6 +67,11 @@ struct TrainConfig {
   double skinning_learning_rate_factor = 0.3;
   // 8 x 32 x 32: nearly as good as 16 x 64 x 64 in Fast-SNARF's ablation, 8x fewer voxels.
   std::vector<int64_t> grid{8, 32, 32};
+  // Emptiness prior on the canonical shape (training/canonical_sparsity.h):
+  // weight of the BCE towards "outside" at canonical_sparsity_points points
+  // per frame, uniform in the canonical meshing box; 0 = off (the papers).
+  double canonical_sparsity_weight = 0.0;
+  int64_t canonical_sparsity_points = 256;
   // INS: coupling layers per PIN, widths of the pose encoder (per bone) and of
   // the coupling layers' SIREN and maps, rotation encoding, and the PINs'
   // learning rate relative to learning_rate (paper: 18, 5 x 24 = 120, 0.1).
