@@ -35,6 +35,7 @@ TrainConfig TrainConfig::full() {
   c.decay_fraction = 0;
   c.warmup_steps = 0;
   c.skinning_learning_rate_factor = 1.0;
+  c.canonical_sparsity_weight = 0;
   c.pose_conditioning = true;
   c.encoding_frequencies = 0;
   c.grid = {16, 64, 64};

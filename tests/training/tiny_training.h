@@ -38,6 +38,7 @@ inline TrainConfig tiny_config() {
   c.decay_fraction = 0;
   c.warmup_steps = 0;
   c.skinning_learning_rate_factor = 1.0;
+  c.canonical_sparsity_weight = 0;
   return c;
 }
 

@@ -69,8 +69,10 @@ struct TrainConfig {
   std::vector<int64_t> grid{8, 32, 32};
   // Emptiness prior on the canonical shape (training/canonical_sparsity.h):
   // weight of the BCE towards "outside" at canonical_sparsity_points points
-  // per frame, uniform in the canonical meshing box; 0 = off (the papers).
-  double canonical_sparsity_weight = 0.0;
+  // per frame, uniform in the canonical meshing box; 0 = off (the papers,
+  // full()). Demo: 0.3, which removes most canonical floaters and raised
+  // IoU_bbox by 2-3 points (docs/benchmarks.md, "Canonical floaters").
+  double canonical_sparsity_weight = 0.3;
   int64_t canonical_sparsity_points = 256;
   // INS: coupling layers per PIN, widths of the pose encoder (per bone) and of
   // the coupling layers' SIREN and maps, rotation encoding, and the PINs'
