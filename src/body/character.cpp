@@ -483,20 +483,28 @@ void smooth_over_mesh(std::vector<double>& weights, const Adjacency& adjacency, 
   }
 }
 
+// How much a vertex belongs to the skirt: 1 on its surface, fading out over
+// 2 cm (the fillets to the torso and the legs); where the hips touch the skirt
+// from inside, the vertex still follows the cloth. `height` is 0 at the waist
+// and 1 at the hem.
+struct SkirtMembership {
+  double on_skirt, height;
+};
+
+SkirtMembership skirt_membership(const Skirt& skirt, const Vec3& p, double scale) {
+  const double s = std::clamp(1.0 - skirt.distance(p) / (0.02 * scale), 0.0, 1.0);
+  return {s * s * (3 - 2 * s),
+          std::clamp((skirt.top_y - p.y()) / (skirt.top_y - skirt.hem_y), 0.0, 1.0)};
+}
+
 // The skirt moves like cloth on the legs: pelvis at the waist, blending into
 // the hips and then partly the knees towards the hem, left/right by x.
 void blend_skirt_weights(const Design& design, const std::vector<Vec3>& vertices,
                          std::vector<double>& weights, double scale) {
-  const Skirt& skirt = design.skirt;
   for (size_t v = 0; v < vertices.size(); ++v) {
     const Vec3& p = vertices[v];
-    // How much the vertex belongs to the skirt: 1 on its surface, fading out
-    // over 2 cm (the fillets to the torso and the legs). Where the hips touch
-    // the skirt from inside, the vertex still follows the cloth.
-    const double s = std::clamp(1.0 - skirt.distance(p) / (0.02 * scale), 0.0, 1.0);
-    const double on_skirt = s * s * (3 - 2 * s);
+    const auto [on_skirt, t] = skirt_membership(design.skirt, p, scale);
     if (on_skirt <= 0) continue;
-    const double t = std::clamp((skirt.top_y - p.y()) / (skirt.top_y - skirt.hem_y), 0.0, 1.0);
     const double left = 1.0 / (1.0 + std::exp(-p.x() / (0.03 * scale)));
     std::array<double, kNumJoints> cloth{};
     cloth[kPelvis] = 1 - t;
@@ -602,6 +610,28 @@ BodyModelData make_character(const CharacterOptions& options) {
           posedirs[v][c][9 * (joint - 1) + diagonal] +=
               static_cast<float>(-0.5 * bulge * normals[v][c]);
     }
+
+  // The skirt's pose-dependent flare: the hem swings outward, away from the
+  // skirt's axis, by 6 cm (at 1.7 m) per unit of 1 - cos(theta) of either hip,
+  // growing with the square of the height below the waist. Both hips widen the
+  // whole hem, so raising the left leg also lifts the right side of the skirt.
+  // This is what LBS cannot do with any pose-free weights (a hip's rotation
+  // about x moves points only in y and z; here it moves them in x too), and
+  // it is what the pose-conditioned methods (SNARF, INS) are there to learn.
+  if (design.clothed) {
+    const Skirt& skirt = design.skirt;
+    const double flare = 0.06 * scale;
+    for (int64_t v = 0; v < V; ++v) {
+      const auto [on_skirt, t] = skirt_membership(skirt, vertices[v], scale);
+      if (on_skirt <= 0) continue;
+      const Vec3 outward =
+          flare * on_skirt * t * t * Vec3(vertices[v].x(), 0, vertices[v].z()) / skirt.hem_radius;
+      for (int joint : {kLeftHip, kRightHip})
+        for (int c = 0; c < 3; ++c)
+          for (int diagonal : {0, 4, 8})
+            posedirs[v][c][9 * (joint - 1) + diagonal] += static_cast<float>(-0.5 * outward[c]);
+    }
+  }
 
   // Shape directions: height (+3 % per unit, about the soles) and girth (+1 cm
   // along the normal per unit).

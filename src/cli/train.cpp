@@ -34,6 +34,7 @@ void register_train(CLI::App& app) {
   cmd->callback([opt] {
     const auto saved = (std::filesystem::path(opt->out) / "config.json").string();
     TrainConfig config = opt->full ? TrainConfig::full() : TrainConfig{};
+    if (!opt->method.empty()) config.use_method(opt->method);
     if (opt->resume && std::filesystem::exists(saved)) config = TrainConfig::load_run(saved);
     if (!opt->config.empty()) config = TrainConfig::load(opt->config, config);
     if (!opt->data.empty()) config.data = std::filesystem::absolute(opt->data).string();

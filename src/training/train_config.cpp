@@ -42,6 +42,11 @@ TrainConfig TrainConfig::full() {
   return c;
 }
 
+void TrainConfig::use_method(const std::string& name) {
+  method = name;
+  if (name == "ins") canonical_sparsity_weight = 0;
+}
+
 std::string TrainConfig::to_json() const { return nlohmann::json(*this).dump(2) + "\n"; }
 
 namespace {

@@ -190,6 +190,39 @@ TEST(Character, SkirtFollowsTheLegsSmoothly) {
             posed.joints[0][joint("left_knee")][2].item<float>());
 }
 
+TEST(Character, SkirtHemFlaresOutWithEitherHipBeyondWhatLbsDoes) {
+  const auto& d = clothed_character().data();
+  const auto skeleton = clothed_character().skeleton();
+  const auto v = d.v_template;
+  const auto y = v.select(1, 1), x = v.select(1, 0);
+  const float knee_y = skeleton.rest_joints[joint("left_knee")][1].item<float>();
+  const float hip_y = skeleton.rest_joints[joint("left_hip")][1].item<float>();
+  const auto hem = (y > knee_y) & (y < 0.5f * (knee_y + hip_y)) & (x.abs() > 0.2f);
+  BodyModelData lbs_only = d;
+  lbs_only.posedirs = torch::zeros_like(d.posedirs);
+  const BodyModel without_correctives(lbs_only, "clothed character without correctives");
+  // Raise the left leg only: both sides of the hem move outward in x, which a
+  // rotation about x cannot do by itself.
+  auto pose = torch::zeros({1, 24, 3});
+  pose[0][joint("left_hip")][0] = -0.8f;
+  const auto flare = (clothed_character().pose(pose).vertices[0] -
+                      without_correctives.pose(pose).vertices[0])
+                         .select(1, 0);
+  EXPECT_GT(flare.index({hem & (x > 0)}).mean().item<float>(), 0.004f);
+  EXPECT_LT(flare.index({hem & (x < 0)}).mean().item<float>(), -0.004f);
+  // The plain character has no flare: its correctives are local bulges only.
+  BodyModelData plain_lbs = character().data();
+  plain_lbs.posedirs = torch::zeros_like(plain_lbs.posedirs);
+  const auto plain = (character().pose(pose).vertices[0] -
+                      BodyModel(plain_lbs, "plain").pose(pose).vertices[0])
+                         .select(1, 0);
+  const auto plain_x = character().data().v_template.select(1, 0);
+  const auto plain_y = character().data().v_template.select(1, 1);
+  const auto plain_right_thigh =
+      (plain_y > knee_y) & (plain_y < 0.5f * (knee_y + hip_y)) & (plain_x < 0);
+  EXPECT_LT(plain.index({plain_right_thigh}).abs().max().item<float>(), 1e-3f);
+}
+
 TEST(Character, DeterministicPerSeedAndVariesAcrossSeeds) {
   const auto a = make_character(low_resolution(7));
   const int threads = at::get_num_threads();

@@ -41,6 +41,19 @@ TEST(TrainConfig, ShippedConfigsLoad) {
   EXPECT_FALSE(ins.pose_conditioning);
 }
 
+TEST(TrainConfig, MethodDefaultsComeBeforeExplicitSettings) {
+  TrainConfig fast;
+  fast.use_method("fast-snarf");
+  EXPECT_EQ(fast.method, "fast-snarf");
+  EXPECT_GT(fast.canonical_sparsity_weight, 0);
+  TrainConfig ins;
+  ins.use_method("ins");
+  EXPECT_EQ(ins.method, "ins");
+  EXPECT_EQ(ins.canonical_sparsity_weight, 0);
+  ins.set("canonical_sparsity_weight=0.1");  // what a user asks for still wins
+  EXPECT_DOUBLE_EQ(ins.canonical_sparsity_weight, 0.1);
+}
+
 TEST(TrainConfig, RunConfigsWrittenBeforeAKeyExistedKeepTheirBehaviour) {
   // An INS run saved before pin_space_output existed used the sine output;
   // today's default (linear) would load its checkpoint as a different function.

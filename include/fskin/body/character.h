@@ -20,6 +20,10 @@
 // The clothed variant adds a flared skirt (a solid elliptic cone from the waist
 // to above the knees, part of the same closed surface) whose weights blend
 // pelvis, hips and knees by height: LBS then deforms it like loose clothing.
+// Its hem also flares outward as either hip bends (6 cm at 1.7 m per unit of
+// 1 - cos(theta), both sides for either hip): a pose-dependent deformation
+// that no pose-free skinning weights reproduce, which is what INS and
+// pose-conditioned SNARF are meant to learn and SNARF-NC cannot.
 // Deterministic: the same options give bit-identical tensors, with any number
 // of threads.
 #include <cstdint>

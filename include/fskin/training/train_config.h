@@ -71,7 +71,8 @@ struct TrainConfig {
   // weight of the BCE towards "outside" at canonical_sparsity_points points
   // per frame, uniform in the canonical meshing box; 0 = off (the papers,
   // full()). Demo: 0.3, which removes most canonical floaters and raised
-  // IoU_bbox by 2-3 points (docs/benchmarks.md, "Canonical floaters").
+  // IoU_bbox by 2-3 points (docs/benchmarks.md, "Canonical floaters"); off
+  // for INS (use_method), where it cost 6-7 IoU points on the clothed character.
   double canonical_sparsity_weight = 0.3;
   int64_t canonical_sparsity_points = 256;
   // INS: coupling layers per PIN, widths of the pose encoder (per bone) and of
@@ -100,6 +101,12 @@ struct TrainConfig {
   // The papers' full size: 8 x 256 occupancy network, 2000 + 250 points,
   // 16 x 64 x 64 grid, learning rate 1e-3, raw coordinates, 45k steps.
   static TrainConfig full();
+
+  // Sets `method` and the defaults measured for it on top of this config:
+  // for "ins", no emptiness prior (PIN_c's output space is not the box the
+  // prior samples, and the prior hurt INS, docs/benchmarks.md). Config files
+  // and --set assignments are applied after, so they still win.
+  void use_method(const std::string& name);
 
   std::string to_json() const;
   // Overlays a JSON object on `base` (e.g. TrainConfig{} or full()); unknown
