@@ -22,12 +22,25 @@ for p in "${PACKAGES[@]}"; do
     missing+=("$p")
   fi
 done
-if [ ${#missing[@]} -eq 0 ]; then
-  exit 0
+# The tests check our glTF files with the Khronos glTF-Validator and three.js
+# (tools/gltf-check, from the npm registry). Any node >= 18 with npm will do,
+# Debian's or another vendor's (whose nodejs package conflicts with Debian's npm).
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  missing+=(nodejs npm)
 fi
-echo "setup: installing ${missing[*]}"
-SUDO=""
-if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -q
-$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -q
+  $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi
+
+# The glTF checkers, at the versions pinned in package-lock.json.
+GLTF_CHECK="$(dirname "$0")/../tools/gltf-check"
+if [ ! -f "$GLTF_CHECK/node_modules/.package-lock.json" ] ||
+   [ "$GLTF_CHECK/package-lock.json" -nt "$GLTF_CHECK/node_modules/.package-lock.json" ]; then
+  echo "setup: installing the glTF checkers (npm ci in tools/gltf-check)"
+  npm ci --prefix "$GLTF_CHECK" --no-audit --no-fund --loglevel=error
+fi

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include <cstdlib>
 #include <filesystem>
 
 #include "fskin/core/error.h"
@@ -70,6 +71,27 @@ TEST(GltfAnimation, SingleFrameIsAStaticMesh) {
   const auto dir = testing::temp_dir("gltf_static");
   const auto path = (dir / "still.glb").string();
   expect_round_trip(path, moving_tetrahedron(1));
+  fs::remove_all(dir);
+}
+
+TEST(GltfAnimation, KhronosValidatorAndThreeJsAcceptIt) {
+  // What Blender and three.js users open: checked by the reference validator
+  // and by three.js's loader (tools/gltf-check), both file flavours.
+  const auto dir = testing::temp_dir("gltf_viewers");
+  const auto glb = (dir / "anim.glb").string(), gltf = (dir / "anim.gltf").string(),
+             log = (dir / "check.txt").string();
+  write_gltf_animation(glb, moving_tetrahedron(5));
+  auto without_colours = moving_tetrahedron(2);
+  without_colours.colors = torch::Tensor();
+  write_gltf_animation(gltf, without_colours);
+  const std::string command =
+      "node " + std::string(FSKIN_GLTF_CHECK) + " " + glb + " " + gltf + " > " + log + " 2>&1";
+  const int status = std::system(command.c_str());
+  const std::string output = read_file(log);
+  ASSERT_EQ(status, 0) << output << "\n(scripts/setup.sh installs node and the checkers)";
+  EXPECT_NE(output.find("\"errors\":0,\"warnings\":0"), std::string::npos) << output;
+  EXPECT_NE(output.find("\"vertices\":4,\"triangles\":4,\"frames\":5"), std::string::npos) << output;
+  EXPECT_NE(output.find("\"frames\":2"), std::string::npos) << output;
   fs::remove_all(dir);
 }
 
