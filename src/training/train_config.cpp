@@ -14,7 +14,7 @@ namespace fskin {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TrainConfig, data, method, seed, steps, frames_per_batch, surface_points, uniform_points, learning_rate, grad_clip,
     warmup_steps, warmup_factor, decay_fraction, decay_factor, pin_layers, pin_per_bone_dim, pin_pose_hidden_dim, pin_space_hidden_dim,
-    pin_space_output, pin_map_hidden_dim, pin_rotation, pin_learning_rate_factor,
+    pin_space_output, pin_space_omega, pin_map_hidden_dim, pin_rotation, pin_learning_rate_factor,
     bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, skinning_prior_steps, checkpoint_every, keep_checkpoints,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
     pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, canonical_sparsity_weight,
@@ -135,8 +135,9 @@ void TrainConfig::validate() const {
               "config: decay_fraction {} must be in [0, 1] and decay_factor {} in (0, 1]", decay_fraction,
               decay_factor);
   FSKIN_CHECK(pin_layers >= 1 && pin_per_bone_dim >= 1 && pin_pose_hidden_dim >= 1 && pin_space_hidden_dim >= 1 &&
-                  pin_map_hidden_dim >= 1 && pin_learning_rate_factor > 0 && skinning_learning_rate_factor > 0,
-              "config: pin_* sizes and the pin / skinning learning-rate factors must be positive");
+                  pin_map_hidden_dim >= 1 && pin_learning_rate_factor > 0 && skinning_learning_rate_factor > 0 &&
+                  pin_space_omega > 0 && std::isfinite(pin_space_omega),
+              "config: pin_* sizes, pin_space_omega and the pin / skinning learning-rate factors must be positive");
   FSKIN_CHECK(canonical_sparsity_weight >= 0 && std::isfinite(canonical_sparsity_weight) &&
                   canonical_sparsity_points >= 1,
               "config: canonical_sparsity_weight ({}) must be >= 0 and canonical_sparsity_points ({}) >= 1",
@@ -200,6 +201,7 @@ ArticulatedModelOptions model_options(const TrainConfig& config, const Canonical
   o.pin.coupling.embedding_dim = o.pin.pose.embedding_dim();
   o.pin.coupling.space_hidden_dim = config.pin_space_hidden_dim;
   o.pin.coupling.space_linear_output = config.pin_space_output == "linear";
+  o.pin.coupling.first_omega = config.pin_space_omega;
   o.pin.coupling.map_hidden_dim = config.pin_map_hidden_dim;
   o.pin_learning_rate_factor = config.pin_learning_rate_factor;
   o.skinning_learning_rate_factor = config.skinning_learning_rate_factor;

@@ -87,6 +87,10 @@ struct TrainConfig {
   // docs/ins.md) or "sine" (a bounded
   // embedding; fskin's default before session 4).
   std::string pin_space_output = "linear";
+  // w0 of the SIREN's first layer (SIREN paper: 30), in radians per canonical
+  // metre times the initial weights (at most 1/2 for 2 inputs): the lowest
+  // length scale at which the PINs deform space at the start.
+  double pin_space_omega = 30.0;
   int64_t pin_map_hidden_dim = 32;
   std::string pin_rotation = "euler";
   double pin_learning_rate_factor = 0.1;
