@@ -87,9 +87,10 @@ struct TrainConfig {
   // docs/ins.md) or "sine" (a bounded
   // embedding; fskin's default before session 4).
   std::string pin_space_output = "linear";
-  // w0 of the SIREN's first layer (SIREN paper: 30), in radians per canonical
-  // metre times the initial weights (at most 1/2 for 2 inputs): the lowest
-  // length scale at which the PINs deform space at the start.
+  // w0 of the SIREN's first layer (SIREN paper: 30): its initial frequencies
+  // are w0 x U(-1/2, 1/2) radians per unit of the PINs' normalised coordinates
+  // (the body's longest side spans [-1, 1]), which sets how finely the PINs
+  // can bend space early in training.
   double pin_space_omega = 30.0;
   int64_t pin_map_hidden_dim = 32;
   std::string pin_rotation = "euler";
