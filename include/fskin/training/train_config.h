@@ -108,9 +108,9 @@ struct TrainConfig {
   static TrainConfig full();
 
   // Sets `method` and the defaults measured for it on top of this config:
-  // for "ins", no emptiness prior (PIN_c's output space is not the box the
-  // prior samples, and the prior hurt INS, docs/benchmarks.md). Config files
-  // and --set assignments are applied after, so they still win.
+  // for "ins", no emptiness prior (it cost INS 6-7 IoU points in the run we
+  // measured, docs/benchmarks.md; not understood yet). Config files and --set
+  // assignments are applied after, so they still win.
   void use_method(const std::string& name);
 
   std::string to_json() const;
