@@ -61,11 +61,48 @@ torch::Tensor bone_features(const torch::Tensor& bones, RotationEncoding encodin
   return torch::cat({translation, encoded}, -1);
 }
 
+PoseFrame parse_pose_frame(const std::string& name) {
+  if (name == "global") return PoseFrame::kGlobal;
+  if (name == "parent") return PoseFrame::kParent;
+  fail("pose frame '{}' is unknown; expected global or parent", name);
+}
+
+std::string to_string(PoseFrame frame) {
+  switch (frame) {
+    case PoseFrame::kGlobal: return "global";
+    case PoseFrame::kParent: return "parent";
+  }
+  fail("pose frame {} is out of range", static_cast<int>(frame));
+}
+
+torch::Tensor parent_relative_transforms(const torch::Tensor& bones, const std::vector<int64_t>& parents) {
+  expect_shape(bones, {-1, static_cast<int64_t>(parents.size()), 4, 4}, "parent_relative_transforms: bones");
+  FSKIN_CHECK(!parents.empty() && parents[0] == -1, "parent_relative_transforms: parents[0] must be -1");
+  std::vector<int64_t> parent_of_child(parents.begin() + 1, parents.end());
+  for (size_t j = 0; j < parent_of_child.size(); ++j) {
+    FSKIN_CHECK(parent_of_child[j] >= 0 && parent_of_child[j] < static_cast<int64_t>(j + 1),
+                "parent_relative_transforms: parents[{}] = {} is not an earlier joint", j + 1, parent_of_child[j]);
+  }
+  const auto index = torch::tensor(parent_of_child, torch::TensorOptions(torch::kLong).device(bones.device()));
+  const auto parent = bones.index_select(1, index);  // [B, J-1, 4, 4]
+  const auto rotation_t = parent.index({Ellipsis, Slice(0, 3), Slice(0, 3)}).transpose(-1, -2);
+  const auto translation = parent.index({Ellipsis, Slice(0, 3), Slice(3, 4)});
+  const auto bottom = parent.index({Ellipsis, Slice(3, 4), Slice()});
+  const auto inverse = torch::cat({torch::cat({rotation_t, -torch::matmul(rotation_t, translation)}, -1), bottom}, -2);
+  const auto children = torch::matmul(inverse, bones.index({Slice(), Slice(1)}));
+  return torch::cat({bones.index({Slice(), Slice(0, 1)}), children}, 1);
+}
+
 void PoseEncoderOptions::validate() const {
   FSKIN_CHECK(num_bones > 0, "PoseEncoderOptions: num_bones must be positive, got {}", num_bones);
   FSKIN_CHECK(per_bone_dim > 0, "PoseEncoderOptions: per_bone_dim must be positive, got {}", per_bone_dim);
   FSKIN_CHECK(hidden_dim > 0, "PoseEncoderOptions: hidden_dim must be positive, got {}", hidden_dim);
   FSKIN_CHECK(hidden_layers >= 0, "PoseEncoderOptions: hidden_layers must be >= 0, got {}", hidden_layers);
+  FSKIN_CHECK(frame == PoseFrame::kGlobal || static_cast<int64_t>(parents.size()) == num_bones,
+              "PoseEncoderOptions: the parent frame needs the parents of all {} bones, got {}", num_bones,
+              parents.size());
+  FSKIN_CHECK(bone_dropout >= 0 && bone_dropout < 1, "PoseEncoderOptions: bone_dropout must be in [0, 1), got {}",
+              bone_dropout);
 }
 
 PoseEncoderImpl::PoseEncoderImpl(const PoseEncoderOptions& o) : options_(o) {
@@ -104,10 +141,18 @@ torch::Tensor PoseEncoderImpl::forward(const torch::Tensor& bones) {
   FSKIN_CHECK(bones.scalar_type() == weights_[0].scalar_type(),
               "PoseEncoder: bones are {} but the parameters are {}", std::string(c10::toString(bones.scalar_type())),
               std::string(c10::toString(weights_[0].scalar_type())));
-  const auto features = bone_features(bones, options_.rotation);
+  const auto features =
+      bone_features(options_.frame == PoseFrame::kParent ? parent_relative_transforms(bones, options_.parents) : bones,
+                    options_.rotation);
   // Centring: the identity transform has zero features, so it maps to exactly 0.
   const auto zero = torch::zeros({1, features.size(1), features.size(2)}, features.options());
-  const auto embedding = per_bone_mlp(features) - per_bone_mlp(zero);
+  auto embedding = per_bone_mlp(features) - per_bone_mlp(zero);
+  if (is_training() && options_.bone_dropout > 0) {
+    const double keep = 1.0 - options_.bone_dropout;
+    embedding = embedding * (torch::bernoulli(torch::full({bones.size(0), options_.num_bones, 1}, keep,
+                                                          embedding.options())) /
+                             keep);
+  }
   return embedding.reshape({bones.size(0), options_.embedding_dim()});
 }
 

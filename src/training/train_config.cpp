@@ -14,7 +14,8 @@ namespace fskin {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TrainConfig, data, method, seed, steps, frames_per_batch, surface_points, uniform_points, learning_rate, grad_clip,
     warmup_steps, warmup_factor, decay_fraction, decay_factor, pin_layers, pin_per_bone_dim, pin_pose_hidden_dim, pin_space_hidden_dim,
-    pin_space_output, pin_space_omega, pin_map_hidden_dim, pin_rotation, pin_learning_rate_factor,
+    pin_space_output, pin_space_omega, pin_map_hidden_dim, pin_rotation, pin_pose_frame, pin_bone_dropout,
+    pin_learning_rate_factor,
     bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, skinning_prior_steps, checkpoint_every, keep_checkpoints,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
     pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, canonical_sparsity_weight,
@@ -143,6 +144,9 @@ void TrainConfig::validate() const {
               "config: canonical_sparsity_weight ({}) must be >= 0 and canonical_sparsity_points ({}) >= 1",
               canonical_sparsity_weight, canonical_sparsity_points);
   parse_rotation_encoding(pin_rotation);
+  parse_pose_frame(pin_pose_frame);
+  FSKIN_CHECK(pin_bone_dropout >= 0 && pin_bone_dropout < 1, "config: pin_bone_dropout {} must be in [0, 1)",
+              pin_bone_dropout);
   FSKIN_CHECK(pin_space_output == "sine" || pin_space_output == "linear",
               "config: pin_space_output must be \"sine\" or \"linear\", got \"{}\"", pin_space_output);
   FSKIN_CHECK(part_hidden_dim >= 1 && part_hidden_layers >= 1, "config: part_hidden_dim and part_hidden_layers must be >= 1");
@@ -198,6 +202,9 @@ ArticulatedModelOptions model_options(const TrainConfig& config, const Canonical
   o.pin.pose.per_bone_dim = config.pin_per_bone_dim;
   o.pin.pose.hidden_dim = config.pin_pose_hidden_dim;
   o.pin.pose.rotation = parse_rotation_encoding(config.pin_rotation);
+  o.pin.pose.frame = parse_pose_frame(config.pin_pose_frame);
+  o.pin.pose.parents = skeleton.parents;
+  o.pin.pose.bone_dropout = config.pin_bone_dropout;
   o.pin.coupling.embedding_dim = o.pin.pose.embedding_dim();
   o.pin.coupling.space_hidden_dim = config.pin_space_hidden_dim;
   o.pin.coupling.space_linear_output = config.pin_space_output == "linear";

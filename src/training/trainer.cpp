@@ -171,6 +171,9 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
     }
     const auto step_start = std::chrono::steady_clock::now();
     const uint64_t seed = step_seed(config.seed, step);
+    // Models may draw from the default generator during a step (the PINs'
+    // bone dropout); seeding it per step keeps --resume bit-for-bit.
+    torch::manual_seed(seed ^ 0x2545f491u);
     const auto batch = source.batch(config.frames_per_batch, config.surface_points, config.uniform_points, seed);
     auto prediction = model.predict(batch.points, batch.bone_transforms, batch.pose, Aggregation::Soft);
     const auto bce = torch::binary_cross_entropy_with_logits(prediction.logits, batch.occupancy);

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "fskin/core/error.h"
+#include "fskin/skeleton/forward_kinematics.h"
 #include "fskin/skeleton/rotations.h"
 #include "invertible/invertible_test_util.h"
 #include "test_util.h"
@@ -121,6 +122,84 @@ TEST(PoseEncoding, GradientsMatchFiniteDifferences) {
   for (const auto& p : encoder->named_parameters()) {
     testing::expect_gradient_matches_finite_difference(loss, p.value(), {0, 7, p.value().numel() - 1}, p.key());
   }
+}
+
+// A chain with a branch: 0 -> 1 -> {2, 3}.
+const std::vector<int64_t> kParents = {-1, 0, 1, 1};
+
+PosedSkeleton posed_chain(const torch::Tensor& local_rotations) {
+  const auto rest = torch::tensor({0.0, 0.0, 0.0, 0.0, 0.4, 0.0, 0.2, 0.7, 0.1, -0.3, 0.6, 0.0},
+                                  torch::kFloat64).reshape({4, 3});
+  return forward_kinematics(kParents, rest, local_rotations, torch::tensor({{0.1, -0.2, 0.3}}, torch::kFloat64));
+}
+
+TEST(PoseEncoding, ParentFrameSeesEachJointsOwnRotation) {
+  torch::manual_seed(5);
+  const auto local = axis_angle_to_matrix(torch::randn({1, 4, 3}, torch::kFloat64));
+  const auto bones = posed_chain(local).bone_transforms;
+  const auto relative = parent_relative_transforms(bones, kParents);
+  EXPECT_TRUE(torch::equal(relative[0][0], bones[0][0]));  // the root keeps its transform
+  for (int64_t j = 1; j < 4; ++j) {
+    EXPECT_TRUE(torch::allclose(relative[0][j].index({Slice(0, 3), Slice(0, 3)}), local[0][j], 1e-12, 1e-12))
+        << "joint " << j;
+    EXPECT_TRUE(torch::allclose(relative[0][j][3], torch::tensor({0.0, 0.0, 0.0, 1.0}, torch::kFloat64)));
+  }
+  const auto identity = testing::identity_bones(2, 4, torch::kFloat64);
+  EXPECT_TRUE(torch::equal(parent_relative_transforms(identity, kParents), identity));
+}
+
+TEST(PoseEncoding, ParentFrameKeepsAnAncestorsMotionOutOfItsChildren) {
+  torch::manual_seed(6);
+  const auto opts = torch::TensorOptions().dtype(torch::kFloat64);
+  auto axis_angles = torch::randn({1, 4, 3}, opts);
+  const auto before = posed_chain(axis_angle_to_matrix(axis_angles)).bone_transforms;
+  axis_angles.index_put_({0, 1}, torch::randn({3}, opts));  // bend joint 1 only
+  const auto after = posed_chain(axis_angle_to_matrix(axis_angles)).bone_transforms;
+  for (auto frame : {PoseFrame::kGlobal, PoseFrame::kParent}) {
+    PoseEncoderOptions o;
+    o.num_bones = 4;
+    o.per_bone_dim = 2;
+    o.hidden_dim = 8;
+    o.frame = frame;
+    o.parents = kParents;
+    PoseEncoder encoder(o);
+    encoder->to(torch::kFloat64);
+    const auto changed = (encoder->forward(after) - encoder->forward(before)).abs().reshape({4, 2}).amax(1) > 1e-12;
+    // Global: joint 1 moves the transforms of 1 and its children 2, 3; parent: joint 1's own only.
+    const std::vector<bool> expected = frame == PoseFrame::kGlobal ? std::vector<bool>{false, true, true, true}
+                                                                   : std::vector<bool>{false, true, false, false};
+    for (int64_t j = 0; j < 4; ++j) EXPECT_EQ(changed[j].item<bool>(), expected[j]) << to_string(frame) << " bone " << j;
+  }
+  EXPECT_EQ(parse_pose_frame("parent"), PoseFrame::kParent);
+  testing::expect_error([] { parse_pose_frame("local"); }, {"local", "global", "parent"});
+  PoseEncoderOptions missing;
+  missing.frame = PoseFrame::kParent;
+  testing::expect_error([&] { PoseEncoder{missing}; }, {"PoseEncoderOptions", "parents"});
+}
+
+TEST(PoseEncoding, BoneDropoutZeroesWholeBonesInTrainingOnly) {
+  torch::manual_seed(7);
+  PoseEncoderOptions o;
+  o.num_bones = 8;
+  o.per_bone_dim = 3;
+  o.hidden_dim = 8;
+  o.bone_dropout = 0.5;
+  PoseEncoder encoder(o);
+  encoder->to(torch::kFloat64);
+  const auto bones = testing::random_bones(64, 8, torch::kFloat64);
+  encoder->eval();
+  const auto full = encoder->forward(bones).reshape({64, 8, 3});
+  encoder->train();
+  const auto dropped = encoder->forward(bones).reshape({64, 8, 3});
+  // Each (frame, bone) slice is either all zero or the evaluation slice x 2.
+  const auto zero = dropped.abs().amax(-1) == 0;
+  const auto scaled = (dropped - 2 * full).abs().amax(-1) < 1e-12;
+  EXPECT_TRUE((zero ^ scaled).all().item<bool>());
+  const double dropped_fraction = zero.to(torch::kFloat64).mean().item<double>();
+  EXPECT_GT(dropped_fraction, 0.4);  // 512 draws of p = 0.5
+  EXPECT_LT(dropped_fraction, 0.6);
+  o.bone_dropout = 1.0;
+  testing::expect_error([&] { PoseEncoder{o}; }, {"PoseEncoderOptions", "bone_dropout"});
 }
 
 TEST(PoseEncoding, RejectsBadBones) {

@@ -40,6 +40,26 @@ torch::Tensor matrix_to_euler_xyz(const torch::Tensor& rotation);
 // its rotation encoding; all zero for the identity transform.
 torch::Tensor bone_features(const torch::Tensor& bones, RotationEncoding encoding);
 
+// Which transform of bone j the encoder sees.
+enum class PoseFrame {
+  // B_j itself (the paper): canonical -> posed in world axes, so bending the
+  // spine changes the features of every bone below it.
+  kGlobal,
+  // B_parent(j)^-1 B_j, the joint's own motion relative to its parent (the
+  // root keeps B_0): bending the spine changes the spine's features only,
+  // as SNARF's pose conditioning sees local joint rotations.
+  kParent,
+};
+
+// "global", "parent" <-> enum; parsing throws fskin::Error listing the names.
+PoseFrame parse_pose_frame(const std::string& name);
+std::string to_string(PoseFrame frame);
+
+// B_parent(j)^-1 B_j for j > 0 and B_0 for the root ([B, J, 4, 4]), with the
+// rigid inverse [R^T, -R^T t] (bone transforms are rigid, docs/conventions.md).
+// The identity pose maps to identities.
+torch::Tensor parent_relative_transforms(const torch::Tensor& bones, const std::vector<int64_t>& parents);
+
 struct PoseEncoderOptions {
   int64_t num_bones = 24;
   // 24 bones x 5 = 120, the paper's pose embedding width (Table 4, row 7).
@@ -49,6 +69,14 @@ struct PoseEncoderOptions {
   int64_t hidden_dim = 128;
   int64_t hidden_layers = 2;
   RotationEncoding rotation = RotationEncoding::kEuler;
+  PoseFrame frame = PoseFrame::kGlobal;
+  // The skeleton's parents (parents[0] == -1); needed by PoseFrame::kParent.
+  std::vector<int64_t> parents;
+  // Training only: each bone's slice of z_p is zeroed with this probability
+  // per frame (and the kept slices scaled by 1 / (1 - p), inverted dropout),
+  // so that no coupling layer can rely on a combination of many bones' poses
+  // seen together in the training motions. Draws from the default generator.
+  double bone_dropout = 0;
 
   int64_t embedding_dim() const { return num_bones * per_bone_dim; }
   // Throws fskin::Error naming the bad field.

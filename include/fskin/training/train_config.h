@@ -94,6 +94,12 @@ struct TrainConfig {
   double pin_space_omega = 30.0;
   int64_t pin_map_hidden_dim = 32;
   std::string pin_rotation = "euler";
+  // "global": each bone's canonical -> posed transform (the paper); "parent":
+  // relative to its parent's (pose_encoding.h, PoseFrame).
+  std::string pin_pose_frame = "global";
+  // Probability of dropping one bone's pose embedding per frame in training
+  // (PoseEncoderOptions::bone_dropout; 0: off, the paper).
+  double pin_bone_dropout = 0;
   double pin_learning_rate_factor = 0.1;
   // Piecewise baseline: one MLP per bone.
   int64_t part_hidden_dim = 64;
