@@ -56,12 +56,27 @@ void expect_same_parameters(OccupancyModel& a, OccupancyModel& b) {
   }
 }
 
-TEST(Trainer, ResumeEqualsUninterrupted) {
-  const SyntheticLimb limb(training_angles());
+// Pose-conditioned Fast-SNARF, and INS with bone dropout: the model's own
+// random draws (from the per-step seeded default generator) must repeat too.
+TrainConfig resume_config(const std::string& method) {
   TrainConfig config = tiny_config();
   config.steps = 8;
   config.checkpoint_every = 2;
-  config.pose_conditioning = true;
+  config.method = method;
+  config.pose_conditioning = method != "ins";
+  config.pin_layers = 2;
+  config.pin_pose_hidden_dim = 8;
+  config.pin_space_hidden_dim = 8;
+  config.pin_map_hidden_dim = 8;
+  config.pin_bone_dropout = 0.5;
+  return config;
+}
+
+class TrainerResume : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(TrainerResume, EqualsUninterrupted) {
+  const SyntheticLimb limb(training_angles());
+  const TrainConfig config = resume_config(GetParam());
   const auto whole = testing::temp_dir("trainer_whole");
   train(config, limb, {whole.string(), false, false, nullptr});
 
@@ -82,6 +97,9 @@ TEST(Trainer, ResumeEqualsUninterrupted) {
   expect_same_parameters(*a, *b);
   EXPECT_EQ(log_column(whole, "bce"), log_column(split, "bce"));
 }
+
+INSTANTIATE_TEST_SUITE_P(Methods, TrainerResume, ::testing::Values("fast-snarf", "ins"),
+                         [](const auto& info) { return info.param == "fast-snarf" ? "fast_snarf" : info.param; });
 
 TEST(Trainer, TruncatedNewestCheckpointFallsBackToThePrevious) {
   const SyntheticLimb limb(training_angles());
