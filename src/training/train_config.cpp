@@ -40,12 +40,24 @@ TrainConfig TrainConfig::full() {
   c.pose_conditioning = true;
   c.encoding_frequencies = 0;
   c.grid = {16, 64, 64};
+  // INS: the paper's PINs (Table 4).
+  c.pin_layers = 18;
+  c.pin_pose_hidden_dim = 128;
+  c.pin_space_hidden_dim = 64;
+  c.pin_space_omega = 30;
+  c.pin_map_hidden_dim = 32;
+  c.pin_pose_frame = "global";
+  c.pin_bone_dropout = 0;
+  c.pin_learning_rate_factor = 0.1;
   return c;
 }
 
 void TrainConfig::use_method(const std::string& name) {
   method = name;
-  if (name == "ins") canonical_sparsity_weight = 0;
+  if (name == "ins") {
+    grad_clip = 4;
+    canonical_sparsity_weight = 0;
+  }
 }
 
 std::string TrainConfig::to_json() const { return nlohmann::json(*this).dump(2) + "\n"; }
@@ -90,7 +102,7 @@ TrainConfig TrainConfig::load_run(const std::string& path) {
   // Keys added after run directories were first written, with the value a run
   // written without the key used.
   static const std::vector<std::pair<std::string, nlohmann::json>> kBeforeTheKeyExisted = {
-      {"pin_space_output", "sine"}};
+      {"pin_space_output", "sine"}, {"pin_space_omega", 30.0}, {"pin_pose_frame", "global"}, {"pin_bone_dropout", 0.0}};
   nlohmann::json saved = parse_object(read_file(path), path);
   for (const auto& [key, value] : kBeforeTheKeyExisted) {
     if (!saved.contains(key)) saved[key] = value;

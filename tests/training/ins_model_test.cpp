@@ -84,7 +84,9 @@ TEST_P(InsModelBothSpaceOutputs, RePosedPointsAreFoundAgainByTheSearch) {
 
 TEST(InsModel, PinsTrainAtTheirOwnLearningRate) {
   const SyntheticLimb limb({0.0});
-  ArticulatedOccupancyModel model(model_options(ins_config(), limb.skeleton()));
+  auto config = ins_config();
+  config.pin_learning_rate_factor = 0.1;  // the paper's 1e-4 vs 1e-3
+  ArticulatedOccupancyModel model(model_options(config, limb.skeleton()));
   const auto groups = model.parameter_groups(1e-3);
   ASSERT_EQ(groups.size(), 3u);  // occupancy, skinning, PINs + pose encoder
   EXPECT_DOUBLE_EQ(groups[0].learning_rate, 1e-3);

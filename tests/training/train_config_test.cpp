@@ -40,6 +40,18 @@ TEST(TrainConfig, ShippedConfigsLoad) {
   EXPECT_EQ(ins.warmup_steps, 2400);
   EXPECT_DOUBLE_EQ(ins.grad_clip, 4.0);
   EXPECT_FALSE(ins.pose_conditioning);
+  // The paper's PINs whatever the base: the CPU defaults differ in every one of these.
+  for (const auto& base : {TrainConfig{}, TrainConfig::full()}) {
+    const auto paper = TrainConfig::load(std::string(FSKIN_CONFIGS_DIR) + "/ins-paper.json", base);
+    EXPECT_EQ(paper.pin_layers, 18);
+    EXPECT_EQ(paper.pin_pose_hidden_dim, 128);
+    EXPECT_EQ(paper.pin_space_hidden_dim, 64);
+    EXPECT_EQ(paper.pin_map_hidden_dim, 32);
+    EXPECT_DOUBLE_EQ(paper.pin_space_omega, 30.0);
+    EXPECT_EQ(paper.pin_pose_frame, "global");
+    EXPECT_EQ(paper.pin_bone_dropout, 0.0);
+    EXPECT_DOUBLE_EQ(paper.pin_learning_rate_factor, 0.1);
+  }
 }
 
 TEST(TrainConfig, MethodDefaultsComeBeforeExplicitSettings) {
@@ -51,6 +63,8 @@ TEST(TrainConfig, MethodDefaultsComeBeforeExplicitSettings) {
   ins.use_method("ins");
   EXPECT_EQ(ins.method, "ins");
   EXPECT_EQ(ins.canonical_sparsity_weight, 0);
+  EXPECT_DOUBLE_EQ(ins.grad_clip, 4.0);
+  EXPECT_DOUBLE_EQ(fast.grad_clip, 0.0);
   ins.set("canonical_sparsity_weight=0.1");  // what a user asks for still wins
   EXPECT_DOUBLE_EQ(ins.canonical_sparsity_weight, 0.1);
 }
@@ -67,6 +81,13 @@ TEST(TrainConfig, RunConfigsWrittenBeforeAKeyExistedKeepTheirBehaviour) {
   saved["pin_space_output"] = "linear";
   std::ofstream(path) << saved.dump();
   EXPECT_EQ(TrainConfig::load_run(path.string()).pin_space_output, "linear");
+  // Keys of session 5 and 6, whose defaults changed when they were added.
+  for (const auto* key : {"pin_space_omega", "pin_pose_frame", "pin_bone_dropout"}) saved.erase(key);
+  std::ofstream(path) << saved.dump();
+  const auto old = TrainConfig::load_run(path.string());
+  EXPECT_DOUBLE_EQ(old.pin_space_omega, 30.0);
+  EXPECT_EQ(old.pin_pose_frame, "global");
+  EXPECT_EQ(old.pin_bone_dropout, 0.0);
 }
 
 TEST(TrainConfig, BootstrapLastsOneEpoch) {

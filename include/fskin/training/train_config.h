@@ -77,11 +77,14 @@ struct TrainConfig {
   int64_t canonical_sparsity_points = 256;
   // INS: coupling layers per PIN, widths of the pose encoder (per bone) and of
   // the coupling layers' SIREN and maps, rotation encoding, and the PINs'
-  // learning rate relative to learning_rate (paper: 18, 5 x 24 = 120, 0.1).
-  int64_t pin_layers = 18;
+  // learning rate relative to learning_rate. Defaults: the CPU size measured on
+  // the clothed character (docs/benchmarks.md, "INS ... session 6"); full()
+  // and configs/ins-paper.json: the paper's (18 layers, 5 x 24 = 120, pose MLP
+  // 128, SIREN 64, maps 32, 0.1).
+  int64_t pin_layers = 6;
   int64_t pin_per_bone_dim = 5;
-  int64_t pin_pose_hidden_dim = 128;
-  int64_t pin_space_hidden_dim = 64;
+  int64_t pin_pose_hidden_dim = 64;
+  int64_t pin_space_hidden_dim = 32;
   // SIREN output layer: "linear" (the SIREN paper's; folds into the maps:
   // re-posing 3.3x and training 1.7x faster on the clothed character,
   // docs/ins.md) or "sine" (a bounded
@@ -90,17 +93,20 @@ struct TrainConfig {
   // w0 of the SIREN's first layer (SIREN paper: 30): its initial frequencies
   // are w0 x U(-1/2, 1/2) radians per unit of the PINs' normalised coordinates
   // (the body's longest side spans [-1, 1]), which sets how finely the PINs
-  // can bend space early in training.
-  double pin_space_omega = 30.0;
-  int64_t pin_map_hidden_dim = 32;
+  // can bend space early in training. Default 10: 30 left ripples in the
+  // re-posed skirt (full(): 30).
+  double pin_space_omega = 10.0;
+  int64_t pin_map_hidden_dim = 16;
   std::string pin_rotation = "euler";
-  // "global": each bone's canonical -> posed transform (the paper); "parent":
-  // relative to its parent's (pose_encoding.h, PoseFrame).
-  std::string pin_pose_frame = "global";
+  // "parent": each bone's transform relative to its parent's (pose_encoding.h,
+  // PoseFrame); "global": its canonical -> posed transform (the paper, full()).
+  // With "parent" and bone dropout INS matched SNARF-NC out of distribution;
+  // with "global" it lost 3 IoU_surf points (docs/benchmarks.md).
+  std::string pin_pose_frame = "parent";
   // Probability of dropping one bone's pose embedding per frame in training
-  // (PoseEncoderOptions::bone_dropout; 0: off, the paper).
-  double pin_bone_dropout = 0;
-  double pin_learning_rate_factor = 0.1;
+  // (PoseEncoderOptions::bone_dropout; full(): 0, the paper).
+  double pin_bone_dropout = 0.6;
+  double pin_learning_rate_factor = 0.03;
   // Piecewise baseline: one MLP per bone.
   int64_t part_hidden_dim = 64;
   int64_t part_hidden_layers = 3;
@@ -114,9 +120,9 @@ struct TrainConfig {
   static TrainConfig full();
 
   // Sets `method` and the defaults measured for it on top of this config:
-  // for "ins", no emptiness prior (it cost INS 6-7 IoU points in the run we
-  // measured, docs/benchmarks.md; not understood yet). Config files and --set
-  // assignments are applied after, so they still win.
+  // for "ins", gradient clipping at 4 (the paper's; without it 2 of 3 INS runs
+  // collapsed mid-training, docs/benchmarks.md) and no emptiness prior.
+  // Config files and --set assignments are applied after, so they still win.
   void use_method(const std::string& name);
 
   std::string to_json() const;
