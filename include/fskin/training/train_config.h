@@ -72,7 +72,9 @@ struct TrainConfig {
   // per frame, uniform in the canonical meshing box; 0 = off (the papers,
   // full()). Demo: 0.3, which removes most canonical floaters and raised
   // IoU_bbox by 2-3 points (docs/benchmarks.md, "Canonical floaters"); off
-  // for INS (use_method), where it cost 6-7 IoU points on the clothed character.
+  // for INS (use_method): with clipping it cost 0.7 OOD IoU_surf points on the
+  // clothed character (the 6-7 points of session 4's one run without clipping
+  // were probably a training collapse).
   double canonical_sparsity_weight = 0.3;
   int64_t canonical_sparsity_points = 256;
   // INS: coupling layers per PIN, widths of the pose encoder (per bone) and of
