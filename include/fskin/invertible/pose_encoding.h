@@ -43,7 +43,7 @@ torch::Tensor bone_features(const torch::Tensor& bones, RotationEncoding encodin
 // Which transform of bone j the encoder sees.
 enum class PoseFrame {
   // B_j itself (the paper): canonical -> posed in world axes, so bending the
-  // spine changes the features of every bone below it.
+  // spine changes the features of all its descendants (neck, head, arms).
   kGlobal,
   // B_parent(j)^-1 B_j, the joint's own motion relative to its parent (the
   // root keeps B_0): bending the spine changes the spine's features only,

@@ -122,7 +122,7 @@ struct TrainConfig {
   static TrainConfig full();
 
   // Sets `method` and the defaults measured for it on top of this config:
-  // for "ins", gradient clipping at 4 (the paper's; without it 2 of 3 INS runs
+  // for "ins", gradient clipping at 4 (the paper's; without it 5 of 11 INS runs
   // collapsed mid-training, docs/benchmarks.md) and no emptiness prior.
   // Config files and --set assignments are applied after, so they still win.
   void use_method(const std::string& name);
