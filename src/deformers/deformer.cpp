@@ -86,6 +86,7 @@ DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tens
     iteration_sum += found.iterations.sum().item<double>();
 
     Stopwatch filter_timer(cuda);
+    if (options_.root_box) found.valid &= options_.root_box->contains(found.x);
     if (options_.remove_duplicates) found.valid = filter_duplicate_roots(found.x, found.valid, options_.duplicate_distance);
     st.filter_seconds += filter_timer.elapsed();
 

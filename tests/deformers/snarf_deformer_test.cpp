@@ -35,6 +35,26 @@ TEST(SnarfDeformer, MlpRoundTrip) {
   EXPECT_TRUE((out.x_canonical.masked_select(out.valid.logical_not().unsqueeze(-1)) == 0).all().item<bool>());
 }
 
+// SNARF's "in-box" rule (Fast-SNARF's): roots outside the box are dropped,
+// every other root is kept as it was.
+TEST(SnarfDeformer, RootBoxDropsExactlyTheRootsOutsideIt) {
+  torch::manual_seed(13);
+  const auto canonical = chain_points(400);
+  const auto bones = chain_bones(1.2, -0.8, 0.2);
+  SnarfDeformer anywhere(chain_field());
+  auto options = DeformerOptions::snarf();
+  options.root_box = VoxelBox{{0.6, 0.0, 0.0}, {1 / 0.6, 0.5, 0.5}};  // x in [-1.2, 0]
+  SnarfDeformer boxed(chain_field(), options);
+  torch::NoGradGuard no_grad;
+  const auto posed = anywhere.deform(canonical, bones);
+  const auto all = anywhere.forward(posed, bones), kept = boxed.forward(posed, bones);
+  const auto inside = options.root_box->contains(all.x_canonical);
+  EXPECT_TRUE(torch::equal(kept.valid, all.valid & inside));
+  EXPECT_GT((all.valid & inside.logical_not()).sum().item<int64_t>(), 100);  // some were dropped
+  EXPECT_GT(kept.valid.sum().item<int64_t>(), 100);                          // and some kept
+  EXPECT_TRUE((kept.x_canonical.select(-1, 0).masked_select(kept.valid) <= 1e-6).all().item<bool>());
+}
+
 TEST(SnarfDeformer, AutomaticStartsPickTheBoneDrivingEachPoint) {
   torch::manual_seed(12);
   auto options = DeformerOptions::snarf();

@@ -26,5 +26,22 @@ TEST(ArticulatedOccupancyModel, SkinningNetworkHasItsOwnLearningRate) {
   EXPECT_EQ(groups[0].parameters.size() + groups[1].parameters.size(), model.parameters().size());
 }
 
+TEST(ArticulatedOccupancyModel, SnarfRootRuleFollowsTheConfig) {
+  const testing::SyntheticLimb limb({0.0});
+  auto config = testing::tiny_config();
+  config.method = "snarf";
+  const auto paper = model_options(config, limb.skeleton());
+  EXPECT_FALSE(paper.deformer.root_box.has_value());
+  EXPECT_FALSE(paper.deformer.remove_duplicates);
+  config.snarf_roots = "in-box";
+  const auto boxed = model_options(config, limb.skeleton());
+  ASSERT_TRUE(boxed.deformer.root_box.has_value());
+  EXPECT_EQ(boxed.deformer.root_box->offset, boxed.box.offset);
+  EXPECT_EQ(boxed.deformer.root_box->scale, boxed.box.scale);
+  EXPECT_TRUE(boxed.deformer.remove_duplicates);
+  config.method = "fast-snarf";  // the rule is SNARF's; Fast-SNARF's grid already confines its roots
+  EXPECT_FALSE(model_options(config, limb.skeleton()).deformer.root_box.has_value());
+}
+
 }  // namespace
 }  // namespace fskin

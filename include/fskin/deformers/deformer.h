@@ -6,6 +6,7 @@
 #include <torch/torch.h>
 
 #include <memory>
+#include <optional>
 
 #include "fskin/deformers/start_bones.h"
 #include "fskin/fields/skinning_field.h"
@@ -23,6 +24,9 @@ struct DeformerOptions {
   double converge_sq = 1e-8;  // squared residual norms
   double diverge_sq = 0.25;
   GradientMode gradient = GradientMode::Approximate;
+  // Roots outside this canonical box are invalid. Fast-SNARF's search confines
+  // them to its grid's box by construction; SNARF's MLP has no box (nullopt).
+  std::optional<VoxelBox> root_box;
   bool remove_duplicates = true;
   double duplicate_distance = 1e-4;
   int64_t chunk_points = 1 << 18;  // posed points per chunk (bounds temporary memory)

@@ -115,6 +115,12 @@ struct TrainConfig {
   // "smpl-training" (the papers' 9 bones), "all", or "automatic:K".
   std::string start_bones = "smpl-training";
   int64_t max_iterations = 0;  // 0: the method's reference value
+  // Which SNARF roots count (method "snarf" only): "converged" (the SNARF
+  // paper and its code: every converged root, wherever it lies) or "in-box"
+  // (Fast-SNARF's rule: converged, inside the skinning grid's box, duplicates
+  // removed), which isolates the grid from the search rule when the two
+  // methods are compared (docs/benchmarks.md).
+  std::string snarf_roots = "converged";
   int64_t eval_chunk_points = 20000;
 
   // The papers' full size: 8 x 256 occupancy network, 2000 + 250 points,
