@@ -8,11 +8,13 @@
 
 #include <thread>
 
+#include "fskin/invertible/fused_pin_pass.h"
 #include "fskin/invertible/pin.h"
 
 namespace {
 
-// Args: vertices, coupling layers, SIREN width, map width, linear SIREN output (0/1).
+// Args: vertices, coupling layers, SIREN width, map width, linear SIREN output (0/1),
+// fused kernel (0: the LibTorch module, 1: fused_pin_pass).
 void BM_PinInverse(benchmark::State& state) {
   at::set_num_threads(static_cast<int>(std::thread::hardware_concurrency()));
   torch::manual_seed(0);
@@ -28,19 +30,23 @@ void BM_PinInverse(benchmark::State& state) {
   for (auto& p : pin->parameters()) p.add_(torch::randn_like(p) * 0.01);
   const auto vertices = torch::rand({1, state.range(0), 3}) * 2 - 1;
   const auto pose_embedding = torch::randn({1, o.coupling.embedding_dim});
+  const bool fused = state.range(5) != 0;
   for (auto _ : state) {
-    auto out = pin->inverse_embedded(vertices, pose_embedding);
+    auto out = fused ? fskin::fused_pin_pass(*pin, vertices, pose_embedding, true)
+                     : pin->inverse_embedded(vertices, pose_embedding);
     benchmark::DoNotOptimize(out.data_ptr<float>());
   }
   state.counters["vertices/s"] =
       benchmark::Counter(static_cast<double>(state.range(0)), benchmark::Counter::kIsIterationInvariantRate);
 }
 BENCHMARK(BM_PinInverse)
-    ->ArgNames({"vertices", "layers", "siren", "map", "linear"})
-    ->Args({50000, 6, 32, 16, 0})
-    ->Args({50000, 6, 32, 16, 1})
-    ->Args({50000, 18, 64, 32, 0})
-    ->Args({50000, 18, 64, 32, 1})
+    ->ArgNames({"vertices", "layers", "siren", "map", "linear", "fused"})
+    ->Args({50000, 6, 32, 16, 0, 0})
+    ->Args({50000, 6, 32, 16, 1, 0})
+    ->Args({50000, 6, 32, 16, 1, 1})
+    ->Args({50000, 18, 64, 32, 0, 0})
+    ->Args({50000, 18, 64, 32, 1, 0})
+    ->Args({50000, 18, 64, 32, 1, 1})
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -36,6 +36,23 @@ torch::Tensor OperationMapImpl::evaluate(torch::Tensor h) {
   return last_->forward(h);
 }
 
+FoldedFirstLayer OperationMapImpl::fold(const torch::Tensor& pose, const SpaceProjection& projection) {
+  // W_a diag(z_p) [B, hidden, E], then (with a projection) times P.
+  const auto& w_a = first_space_pose_->weight;
+  FoldedFirstLayer out;
+  out.weight = w_a.unsqueeze(0) * pose.unsqueeze(1);
+  out.bias = first_pose_->forward(pose) + first_space_pose_->bias;  // W_b z_p + b [B, hidden]
+  if (projection.weight.defined()) {
+    out.weight = torch::matmul(out.weight, projection.weight);
+    out.bias = out.bias + torch::matmul(pose * projection.bias, w_a.t());
+  }
+  return out;
+}
+
+torch::Tensor OperationMapImpl::at_zero_conditioning() {
+  return evaluate(first_space_pose_->bias.view({1, -1})).view({-1});
+}
+
 torch::Tensor OperationMapImpl::forward(const torch::Tensor& space, const torch::Tensor& pose,
                                         const SpaceProjection& projection) {
   const int64_t e = options_.embedding_dim;
@@ -47,15 +64,10 @@ torch::Tensor OperationMapImpl::forward(const torch::Tensor& space, const torch:
   expect_shape(space, {-1, -1, projected ? projection.weight.size(1) : e},
                projected ? "OperationMap: space features" : "OperationMap: space embedding");
   expect_shape(pose, {space.size(0), e}, "OperationMap: pose embedding");
-  // Per frame: W_a diag(z_p) [B, hidden, E], then (with a projection) times P.
-  const auto& w_a = first_space_pose_->weight;
-  auto folded = w_a.unsqueeze(0) * pose.unsqueeze(1);
-  if (projected) folded = torch::matmul(folded, projection.weight);
-  auto offset = first_pose_->forward(pose) + first_space_pose_->bias;  // W_b z_p + b [B, hidden]
-  if (projected) offset = offset + torch::matmul(pose * projection.bias, w_a.t());
-  const auto pre_activation = torch::matmul(space, folded.transpose(1, 2)) + offset.unsqueeze(1);
+  const auto folded = fold(pose, projection);
+  const auto pre_activation = torch::matmul(space, folded.weight.transpose(1, 2)) + folded.bias.unsqueeze(1);
   // Centring: at z_p = 0 the pre-activation is b for every point.
-  return evaluate(pre_activation) - evaluate(first_space_pose_->bias.view({1, 1, -1}));
+  return evaluate(pre_activation) - at_zero_conditioning();
 }
 
 }  // namespace fskin

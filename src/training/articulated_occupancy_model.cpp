@@ -4,6 +4,7 @@
 #include "fskin/core/tensor_checks.h"
 #include "fskin/deformers/fast_snarf_deformer.h"
 #include "fskin/deformers/snarf_deformer.h"
+#include "fskin/invertible/fused_pin_pass.h"
 #include "fskin/fields/voxel_skinning_field.h"
 #include "fskin/training/bootstrap_losses.h"
 #include "fskin/training/occupancy_aggregation.h"
@@ -38,6 +39,11 @@ torch::Tensor ArticulatedOccupancyModel::through_pin(Pin& pin, const torch::Tens
                                                      const torch::Tensor& pose_embedding, bool inverse) {
   const auto& frame = options_.occupancy.input;
   const auto u = frame.apply(x);
+  // Inference (evaluation, meshing, re-posing) takes the fused kernel: the same
+  // function to float32 rounding, ~10x faster (docs/ins.md, "Speed").
+  if (!torch::GradMode::is_enabled() && u.scalar_type() == torch::kFloat32 && fused_pin_pass_supports(*pin)) {
+    return frame.unapply(fused_pin_pass(*pin, u, pose_embedding.to(torch::kFloat32), inverse));
+  }
   return frame.unapply(inverse ? pin->inverse_embedded(u, pose_embedding) : pin->forward_embedded(u, pose_embedding));
 }
 

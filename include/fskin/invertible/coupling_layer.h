@@ -56,6 +56,10 @@ class CouplingLayer : public torch::nn::Module {
   const std::vector<int64_t>& moved() const { return moved_; }
   const std::vector<int64_t>& kept() const { return kept_; }
   const CouplingLayerOptions& options() const { return options_; }
+  const Siren& space_embedding() const { return space_embedding_; }
+  // The operation maps in the order the layer evaluates them: 2D: rotation
+  // (1 output), translation (2); 1D: translation (1).
+  virtual std::vector<OperationMap> maps() const = 0;
 
  protected:
   CouplingLayer(std::vector<int64_t> moved, const CouplingLayerOptions& options);
@@ -86,6 +90,7 @@ class CouplingLayer : public torch::nn::Module {
 class CouplingLayer2D : public CouplingLayer {
  public:
   CouplingLayer2D(int64_t first, int64_t second, const CouplingLayerOptions& options = {});
+  std::vector<OperationMap> maps() const override { return {rotation_, translation_}; }
 
  private:
   torch::Tensor transform(const torch::Tensor& x_a, const Conditioning& conditioning, bool inverse) override;
@@ -97,6 +102,7 @@ class CouplingLayer2D : public CouplingLayer {
 class CouplingLayer1D : public CouplingLayer {
  public:
   CouplingLayer1D(int64_t axis, const CouplingLayerOptions& options = {});
+  std::vector<OperationMap> maps() const override { return {translation_}; }
 
  private:
   torch::Tensor transform(const torch::Tensor& x_a, const Conditioning& conditioning, bool inverse) override;

@@ -42,6 +42,13 @@ struct OperationMapOptions {
   void validate() const;
 };
 
+// The first layer evaluated for given pose embeddings: pre = f A^T + a, with f
+// the space embedding (or, with a projection, the features it is made from).
+struct FoldedFirstLayer {
+  torch::Tensor weight;  // A [B, hidden, E or F]
+  torch::Tensor bias;    // a [B, hidden]
+};
+
 class OperationMapImpl : public torch::nn::Module {
  public:
   explicit OperationMapImpl(const OperationMapOptions& options);
@@ -50,6 +57,13 @@ class OperationMapImpl : public torch::nn::Module {
   // f [B, N, F] and z_s = f W^T + b.
   torch::Tensor forward(const torch::Tensor& space, const torch::Tensor& pose, const SpaceProjection& projection = {});
   const OperationMapOptions& options() const { return options_; }
+
+  // The pieces the fused PIN pass (fused_pin_pass.h) packs per frame.
+  FoldedFirstLayer fold(const torch::Tensor& pose, const SpaceProjection& projection = {});
+  const std::vector<torch::nn::Linear>& hidden_layers() const { return hidden_; }
+  torch::nn::Linear last_layer() const { return last_; }
+  // The uncentred MLP at c = 0, which forward subtracts: [output_dim].
+  torch::Tensor at_zero_conditioning();
 
  private:
   // The uncentred MLP after its first layer's affine map: pre-activation [..., hidden] -> [..., output_dim].

@@ -47,6 +47,9 @@ class SirenImpl : public torch::nn::Module {
   torch::Tensor hidden(const torch::Tensor& x);
   // forward(x) == output_layer()(hidden(x)) when linear_output.
   torch::nn::Linear output_layer() const { return layers_.back(); }
+  // All layers, the first input_dim -> hidden_dim; layer l's w0 is
+  // first_omega for l = 0, else hidden_omega.
+  const std::vector<torch::nn::Linear>& layers() const { return layers_; }
   const SirenOptions& options() const { return options_; }
 
  private:

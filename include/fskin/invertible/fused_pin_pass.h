@@ -1,0 +1,25 @@
+#pragma once
+// A PIN (INS eq. 13) or its inverse (eq. 14) as one fused kernel for
+// inference: per frame the operation maps' first layers are folded with the
+// pose embedding (operation_map.h), packed into one buffer, and every point
+// runs all coupling layers in registers (ops/pin_pass/). CPU kernel over
+// at::parallel_for, CUDA kernel on CUDA tensors. No gradients: training uses
+// PinImpl::forward_embedded / inverse_embedded. Matches them to ~1e-6 in
+// float32 (tests/invertible/fused_pin_pass_test.cpp).
+#include <torch/torch.h>
+
+#include "fskin/invertible/pin.h"
+
+namespace fskin {
+
+// Whether the kernel can run this PIN (<= 64 layers, SIREN and map widths
+// <= 256, which every configuration fskin ships meets).
+bool fused_pin_pass_supports(const PinImpl& pin);
+
+// points [B, N, 3] float32, pose_embedding [B, E] -> [B, N, 3]: PIN(points)
+// or, with `inverse`, PIN^-1(points). Throws fskin::Error on a bad shape, a
+// non-finite input or an unsupported PIN.
+torch::Tensor fused_pin_pass(PinImpl& pin, const torch::Tensor& points, const torch::Tensor& pose_embedding,
+                             bool inverse);
+
+}  // namespace fskin
