@@ -115,6 +115,23 @@ TEST(FastSnarfDeformer, SameRootsAsSnarfGivenTheSameWeights) {
   EXPECT_LT(diff.max().item<double>(), 1e-4);
 }
 
+// Inference LBS interpolates the per-voxel blended transforms (eq. 14-15);
+// with gradients the weights are interpolated and blended per point. Same map.
+TEST(FastSnarfDeformer, InferenceDeformEqualsPerPointBlending) {
+  torch::manual_seed(6);
+  FastSnarfDeformer deformer(chain_field(torch::kFloat64));
+  const auto canonical = chain_points(300, torch::kFloat64).repeat({2, 1, 1}) * 1.3;  // also outside the box
+  const auto bones = torch::cat({chain_bones(1.2, -0.8, 0.2, torch::kFloat64), chain_bones(-0.4, 0.9, 0.0, torch::kFloat64)});
+  const auto blended = deformer.deform(canonical, bones);  // gradient mode: per-point weights
+  torch::Tensor fast;
+  {
+    torch::NoGradGuard no_grad;
+    fast = deformer.deform(canonical, bones);
+  }
+  EXPECT_GT((blended - canonical).norm(2, -1).mean().item<double>(), 0.1);
+  EXPECT_LT((fast - blended).abs().max().item<double>(), 1e-12);
+}
+
 TEST(FastSnarfDeformer, RejectsBadInput) {
   FastSnarfDeformer deformer(chain_field());
   const auto x = chain_points(10);

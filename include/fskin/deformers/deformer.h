@@ -58,7 +58,7 @@ class Deformer {
   // x_posed [B, N, 3], bones [B, J, 4, 4] (canonical -> posed).
   DeformerOutput forward(const torch::Tensor& x_posed, const torch::Tensor& bones);
   // Canonical points [B, N, 3] -> posed [B, N, 3] by LBS with the field's weights.
-  torch::Tensor deform(const torch::Tensor& x_canonical, const torch::Tensor& bones);
+  virtual torch::Tensor deform(const torch::Tensor& x_canonical, const torch::Tensor& bones);
 
   virtual SkinningField& field() = 0;
   const DeformerOptions& options() const { return options_; }
