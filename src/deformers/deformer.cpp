@@ -157,11 +157,24 @@ torch::Tensor Deformer::deform(const torch::Tensor& x_canonical, const torch::Te
   expect_shape(x_canonical, {-1, -1, 3}, "Deformer::deform: x_canonical");
   expect_shape(bones, {x_canonical.size(0), field().num_bones(), 4, 4}, "Deformer::deform: bones");
   expect_finite(bones, "Deformer::deform: bones");
-  std::vector<torch::Tensor> out;
+  const auto bones_x = bones.to(x_canonical.dtype());
   const int64_t N = x_canonical.size(1);
+  if (!torch::GradMode::is_enabled()) {
+    prepare(bones_x);
+    PreparedPose prepared{[this] { release(); }};
+    auto out = torch::empty_like(x_canonical);
+    for (int64_t b = 0; b < x_canonical.size(0); ++b) {
+      for (int64_t begin = 0; begin < N; begin += options_.chunk_points) {
+        const int64_t n = std::min(options_.chunk_points, N - begin);
+        out[b].narrow(0, begin, n).copy_(deform_prepared(b, x_canonical[b].narrow(0, begin, n)));
+      }
+    }
+    return out;
+  }
+  std::vector<torch::Tensor> out;
   for (int64_t begin = 0; begin < N || begin == 0; begin += options_.chunk_points) {
     const auto chunk = x_canonical.narrow(1, begin, std::min(options_.chunk_points, N - begin));
-    out.push_back(linear_blend_skinning(chunk, field().weights(chunk).to(chunk.dtype()), bones.to(chunk.dtype())));
+    out.push_back(linear_blend_skinning(chunk, field().weights(chunk).to(chunk.dtype()), bones_x));
     if (N == 0) break;
   }
   return out.size() == 1 ? out[0] : torch::cat(out, 1);

@@ -1,7 +1,6 @@
 #include "fskin/deformers/fast_snarf_deformer.h"
 
 #include "fskin/core/error.h"
-#include "fskin/core/tensor_checks.h"
 #include "fskin/ops/broyden_search.h"
 
 namespace fskin {
@@ -34,24 +33,6 @@ Deformer::SearchResult FastSnarfDeformer::search(const torch::Tensor& x_posed, c
   if (o.num_starts >= 0) start_weights = field_->grid_weights().detach();  // all bones are candidates
   auto r = broyden_search(transform_grid_.detach(), field_->box(), x_posed, start_inverses, o, start_weights);
   return {r.x_canonical, r.valid, r.iterations, r.inverse_jacobian};
-}
-
-torch::Tensor FastSnarfDeformer::deform(const torch::Tensor& x_canonical, const torch::Tensor& bones) {
-  if (torch::GradMode::is_enabled()) return Deformer::deform(x_canonical, bones);
-  expect_shape(x_canonical, {-1, -1, 3}, "Deformer::deform: x_canonical");
-  expect_shape(bones, {x_canonical.size(0), field().num_bones(), 4, 4}, "Deformer::deform: bones");
-  expect_finite(bones, "Deformer::deform: bones");
-  prepare(bones.to(x_canonical.dtype()));
-  auto out = torch::empty_like(x_canonical);
-  const int64_t N = x_canonical.size(1);
-  for (int64_t b = 0; b < x_canonical.size(0); ++b) {
-    for (int64_t begin = 0; begin < N; begin += options_.chunk_points) {
-      const int64_t n = std::min(options_.chunk_points, N - begin);
-      out[b].narrow(0, begin, n).copy_(deform_prepared(b, x_canonical[b].narrow(0, begin, n)));
-    }
-  }
-  release();
-  return out;
 }
 
 torch::Tensor FastSnarfDeformer::deform_prepared(int64_t b, const torch::Tensor& x) {

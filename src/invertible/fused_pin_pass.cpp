@@ -55,9 +55,9 @@ torch::Tensor pack(PinImpl& pin, const torch::Tensor& pose) {
   const int64_t B = pose.size(0);
   const auto& c = pin.options().coupling;
   std::vector<torch::Tensor> parts;
+  const int64_t sine_layers = sine_layer_count(c);
   for (const auto& layer : pin.layers()) {
     const auto& siren_layers = layer->space_embedding()->layers();
-    const int64_t sine_layers = sine_layer_count(c);
     for (int64_t l = 0; l < sine_layers; ++l) {
       const double omega = l == 0 ? c.first_omega : c.hidden_omega;
       parts.push_back(per_frame(siren_layers[l]->weight * omega, B, true));

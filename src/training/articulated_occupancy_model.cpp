@@ -42,7 +42,7 @@ torch::Tensor ArticulatedOccupancyModel::through_pin(Pin& pin, const torch::Tens
   // Inference (evaluation, meshing, re-posing) takes the fused kernel: the same
   // function to float32 rounding, ~10x faster (docs/ins.md, "Speed").
   if (!torch::GradMode::is_enabled() && u.scalar_type() == torch::kFloat32 && fused_pin_pass_supports(*pin)) {
-    return frame.unapply(fused_pin_pass(*pin, u, pose_embedding.to(torch::kFloat32), inverse));
+    return frame.unapply(fused_pin_pass(*pin, u, pose_embedding, inverse));
   }
   return frame.unapply(inverse ? pin->inverse_embedded(u, pose_embedding) : pin->forward_embedded(u, pose_embedding));
 }

@@ -58,7 +58,11 @@ class Deformer {
   // x_posed [B, N, 3], bones [B, J, 4, 4] (canonical -> posed).
   DeformerOutput forward(const torch::Tensor& x_posed, const torch::Tensor& bones);
   // Canonical points [B, N, 3] -> posed [B, N, 3] by LBS with the field's weights.
-  virtual torch::Tensor deform(const torch::Tensor& x_canonical, const torch::Tensor& bones);
+  // Without gradients (meshing, re-posing) through the prepared pose: for
+  // Fast-SNARF the bones blended per voxel once (eq. 15) and 12 channels
+  // interpolated per point (eq. 14) instead of J weights, the same LBS since
+  // trilinear interpolation is linear. With gradients: weights per point.
+  torch::Tensor deform(const torch::Tensor& x_canonical, const torch::Tensor& bones);
 
   virtual SkinningField& field() = 0;
   const DeformerOptions& options() const { return options_; }

@@ -13,11 +13,6 @@ class FastSnarfDeformer : public Deformer {
   FastSnarfDeformer(std::shared_ptr<GridSkinningField> field,
                     DeformerOptions options = DeformerOptions::fast_snarf());
   SkinningField& field() override { return *field_; }
-  // Without gradients (meshing, re-posing): the bones blended per voxel once
-  // (eq. 15) and the 12 blended-transform channels interpolated per point
-  // (eq. 14) instead of J weights: the same LBS, as trilinear interpolation is
-  // linear. With gradients: Deformer::deform.
-  torch::Tensor deform(const torch::Tensor& x_canonical, const torch::Tensor& bones) override;
 
  protected:
   void prepare(const torch::Tensor& bones) override;
