@@ -1,5 +1,6 @@
-// Fast-SNARF correspondence search on the built-in character: 200k posed
-// points, natural and extreme pose, 9 / all / automatic start bones.
+// Fast-SNARF on the built-in character: the correspondence search (200k posed
+// points, natural and extreme pose, 9 / all / automatic start bones) and the
+// forward map of 50k canonical points (re-posing, meshing).
 #include <benchmark/benchmark.h>
 #include <torch/torch.h>
 
@@ -9,6 +10,7 @@
 #include "fskin/body/character.h"
 #include "fskin/deformers/character_scene.h"
 #include "fskin/deformers/fast_snarf_deformer.h"
+#include "fskin/fields/voxel_box.h"
 
 namespace {
 
@@ -51,5 +53,34 @@ BENCHMARK(BM_FastSnarfDeform)
     ->ArgNames({"extreme", "starts"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+// Forward LBS of 50k canonical surface points through the blended-transform
+// grid (eq. 14-15). range(0): 0 = LibTorch (grid_sampler on the transform
+// grid + a batched 3x3 product), 1 = Deformer::deform without gradients (the
+// fused grid_forward_skinning kernel, plus blending the grid once, eq. 15).
+void BM_FastSnarfForwardSkinning(benchmark::State& state) {
+  at::set_num_threads(static_cast<int>(std::thread::hardware_concurrency()));
+  torch::NoGradGuard no_grad;
+  const auto& s = scene(ScenePose::Natural);
+  fskin::FastSnarfDeformer deformer(s.field, fskin::DeformerOptions::fast_snarf());
+  const int64_t n = 50000, J = s.bones.size(1);
+  const auto x = fskin::sample_canonical_surface(s, n, 0.01, 0);
+  const auto& box = s.field->box();
+  const auto transforms = torch::matmul(s.field->grid_weights().reshape({1, -1, J}),
+                                        s.bones.narrow(2, 0, 3).reshape({1, J, 12}))
+                              .reshape({1, box.shape.depth, box.shape.height, box.shape.width, 12});
+  for (auto _ : state) {
+    torch::Tensor out;
+    if (state.range(0) == 0) {
+      const auto t = fskin::sample_voxels(transforms, box, x).reshape({1, n, 3, 4});
+      out = torch::matmul(t.narrow(3, 0, 3), x.unsqueeze(-1)).squeeze(-1) + t.select(3, 3);
+    } else {
+      out = deformer.deform(x, s.bones);
+    }
+    benchmark::DoNotOptimize(out.data_ptr<float>());
+  }
+  state.counters["points/s"] = benchmark::Counter(static_cast<double>(n), benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_FastSnarfForwardSkinning)->Arg(0)->Arg(1)->ArgName("fused")->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace

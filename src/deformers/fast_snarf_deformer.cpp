@@ -2,6 +2,7 @@
 
 #include "fskin/core/error.h"
 #include "fskin/ops/broyden_search.h"
+#include "fskin/ops/grid_forward_skinning.h"
 
 namespace fskin {
 
@@ -36,7 +37,12 @@ Deformer::SearchResult FastSnarfDeformer::search(const torch::Tensor& x_posed, c
 }
 
 torch::Tensor FastSnarfDeformer::deform_prepared(int64_t b, const torch::Tensor& x) {
-  // Same trilinear interpolation as the kernel (eq. 14), differentiable.
+  if (!torch::GradMode::is_enabled() || !(x.requires_grad() || transform_grid_.requires_grad())) {
+    // No gradient wanted (evaluation, meshing, re-posing): the fused kernel.
+    const auto frame = transform_grid_.narrow(0, b, 1);
+    return grid_forward_skinning(frame, field_->box(), x.to(frame.dtype()).unsqueeze(0)).squeeze(0).to(x.dtype());
+  }
+  // Same trilinear interpolation as the kernels (eq. 14), differentiable.
   const auto t = sample_voxels(transform_grid_[b], field_->box(), x).reshape({-1, 3, 4});
   return torch::matmul(t.narrow(2, 0, 3), x.unsqueeze(-1)).squeeze(-1) + t.select(2, 3);
 }

@@ -7,6 +7,7 @@
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "ops/broyden_search/broyden_search_kernel.h"
+#include "ops/transform_grid_view.h"
 
 #ifdef FSKIN_WITH_CUDA
 #include <c10/cuda/CUDAGuard.h>
@@ -22,15 +23,7 @@ broyden::SearchLaunch<T> make_launch(const torch::Tensor& grid, const VoxelBox& 
                                      const torch::Tensor& starts, const torch::Tensor& start_weights,
                                      int64_t slots, const BroydenSearchOptions& o, BroydenSearchResult& r) {
   broyden::SearchLaunch<T> a{};
-  const int64_t sizes[3] = {box.shape.width, box.shape.height, box.shape.depth};
-  for (int k = 0; k < 3; ++k) {
-    // Voxel coordinate f = (u + 1) / 2 * (size - 1) with u = (x + offset) * scale.
-    const double half = static_cast<double>(sizes[k] - 1) / 2.0;
-    a.grid.size[k] = static_cast<int>(sizes[k]);
-    a.grid.scale[k] = static_cast<T>(box.scale[k] * half);
-    a.grid.shift[k] = static_cast<T>((box.offset[k] * box.scale[k] + 1.0) * half);
-  }
-  a.grid.data = grid.data_ptr<T>();
+  a.grid = transform_grid_view<T>(grid, box);
   a.grid_frame_stride = grid[0].numel();
   a.x_posed = x_posed.data_ptr<T>();
   a.start_inverses = starts.data_ptr<T>();
