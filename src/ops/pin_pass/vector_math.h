@@ -1,14 +1,14 @@
 #pragma once
-// sin and Softplus(beta = 100) as branch-free polynomials, written once for a
-// float (the CUDA kernel: one point per thread) and for a GCC vector of floats
-// (the CPU kernel: 16 points per register). Written by hand because libm's
-// sinf / expf / log1pf are calls the compiler does not vectorise without
-// -ffast-math (glibc declares its SIMD variants only then), and SLEEF would
-// need one dispatch per instruction set; both devices also compute the same
-// numbers this way. Only +, *, / and comparisons-with-select, so every
-// instruction set vectorises them. Needs IEEE arithmetic: -ffast-math would
-// fold round_nearest away. Accuracy (tests/ops/pin_pass_test.cpp): sin within
-// 2e-7 absolute for |x| <= 100, Softplus within 1e-7 absolute.
+// sin and Softplus(beta = 100) without branches, written once for a float
+// (the CUDA kernel: one point per thread) and for a GCC vector of floats (the
+// CPU kernel: 16 points per register). Written by hand because libm's sinf /
+// expf / log1pf are calls the compiler does not vectorise without -ffast-math
+// (glibc declares its SIMD variants only then), and SLEEF would need one
+// dispatch per instruction set; both devices also compute the same numbers
+// this way. sin: a polynomial; Softplus: a table of polynomials. Needs IEEE
+// arithmetic: -ffast-math would fold round_nearest away. Accuracy
+// (tests/ops/pin_pass_test.cpp): sin within 2e-7 absolute for |x| <= 100,
+// Softplus within 1e-7 absolute.
 #include <cstdint>
 #include <cstring>
 
@@ -29,25 +29,36 @@ FSKIN_KERNEL_INLINE V splat(float c) {
   return V{} + c;
 }
 
-// 2^n for integer-valued n in [-127, 127], built in the exponent bits.
-FSKIN_KERNEL_INLINE float pow2(float n) {
-  const int32_t bits = (static_cast<int32_t>(n) + 127) << 23;
+// (-1)^n s for integer-valued n (|n| < 2^31): the parity of n flips the sign bit.
+FSKIN_KERNEL_INLINE float flip_sign_if_odd(float s, float n) {
+  const uint32_t sign = static_cast<uint32_t>(static_cast<int32_t>(n)) << 31;
 #if defined(__CUDA_ARCH__)
-  return __int_as_float(bits);
+  return __uint_as_float(__float_as_uint(s) ^ sign);
 #else
-  float f;
-  std::memcpy(&f, &bits, sizeof f);
-  return f;
+  uint32_t bits;
+  std::memcpy(&bits, &s, sizeof bits);
+  bits ^= sign;
+  std::memcpy(&s, &bits, sizeof s);
+  return s;
 #endif
 }
 
 #if !defined(__CUDACC__)
+// The uint32 vector of `Bytes` bytes (a struct, since GCC drops the attribute
+// from an alias template).
+template <int Bytes>
+struct UnsignedVector {
+  typedef uint32_t type __attribute__((vector_size(Bytes)));
+};
+
 // The same for a GCC vector of floats (a cast between equal-sized vector
 // types reinterprets the bits).
 template <typename V, typename = decltype(V{}[0])>
-FSKIN_KERNEL_INLINE V pow2(V n) {
+FSKIN_KERNEL_INLINE V flip_sign_if_odd(V s, V n) {
   using Int = decltype(n < n);  // the int32 vector of V's shape
-  return reinterpret_cast<V>((__builtin_convertvector(n, Int) + 127) << 23);
+  using UInt = typename UnsignedVector<sizeof(V)>::type;
+  const UInt sign = reinterpret_cast<UInt>(__builtin_convertvector(n, Int)) << 31;
+  return reinterpret_cast<V>(reinterpret_cast<UInt>(s) ^ sign);
 }
 #endif
 
@@ -73,49 +84,76 @@ FSKIN_KERNEL_INLINE V sin(V x) {
   p = p * r2 - 1.9841269841269841e-4f;
   p = p * r2 + 8.3333333333333333e-3f;
   p = p * r2 - 1.6666666666666667e-1f;
-  const V s = r + r * r2 * p;
-  // (-1)^n without integers: half = n/2 - round(n/2) is 0 (n even) or +-1/2.
-  const V half = n * 0.5f - round_nearest(n * 0.5f);
-  return s * (1.0f - 8.0f * half * half);
+  return flip_sign_if_odd(r + r * r2 * p, n);
 }
 
-// exp(t) for t <= 0, clamped at t = -40 (4e-18): below that the result and
-// squares of it in log1p_unit would be subnormal floats, which cost a
-// microcode assist each (measured: the whole PIN pass ran 5x slower).
-// t = n ln2 + r, |r| <= ln2 / 2, Taylor to r^7 (error < 2e-9 relative), times 2^n.
-template <typename V>
-FSKIN_KERNEL_INLINE V exp_nonpositive(V t) {
-  const V lowest = splat<V>(-40.0f);
-  t = t < lowest ? lowest : t;
-  const V n = round_nearest(t * 1.44269504088896341f);
-  V r = t - n * 0.693145751953125f;
-  r = r - n * 1.428606765330187045e-6f;
-  V p = splat<V>(1.9841269841269841e-4f);  // 1/7!
-  p = p * r + 1.3888888888888889e-3f;
-  p = p * r + 8.3333333333333333e-3f;
-  p = p * r + 4.1666666666666667e-2f;
-  p = p * r + 1.6666666666666667e-1f;
-  p = p * r + 0.5f;
-  p = p * r + 1.0f;
-  p = p * r + 1.0f;
-  return p * pow2(n);
+// log(1 + exp(-a)) for a >= 0 as one degree-4 polynomial in t = a - i per
+// unit interval [i, i + 1), i = 0..15, and 0 from a = 16 on (where it is
+// < 1.2e-7): Chebyshev interpolation per interval, rows c[k][i] = coefficient
+// of t^k, printed by tools/fit_softplus_table.py (worst error 1.8e-6, never
+// negative). Replaces exp + log1p (a division and two polynomials): the PIN's
+// maps evaluate it once per hidden unit, half the pass's arithmetic before.
+constexpr int kTableIntervals = 16, kTableDegree = 4;
+#define FSKIN_LOG1P_EXP_NEGATIVE_TABLE                                                                               \
+  {{0.693148613f, 0.313263059f, 0.126927927f, 0.0485870577f, 0.0181497671f, 0.00671528047f, 0.0024756589f,            \
+    0.000911456649f, 0.000335402758f, 0.000123400852f, 4.53984067e-05f, 1.67013804e-05f, 6.14412693e-06f,             \
+    2.26030238e-06f, 8.31519344e-07f, 3.05898965e-07f},                                                               \
+   {-0.500071645f, -0.269010335f, -0.119198799f, -0.0474111885f, -0.0179781169f, -0.00668945024f, -0.00247131148f,    \
+    -0.000910560309f, -0.000335168414f, -0.000123327569f, -4.53731955e-05f, -1.66923419e-05f, -6.1408341e-06f,        \
+    -2.25909548e-06f, -8.31075909e-07f, -3.05735909e-07f},                                                            \
+   {0.125552267f, 0.09886989f, 0.0524695441f, 0.0224703401f, 0.00876569655f, 0.00329636084f, 0.0012225731f,           \
+    0.000451111497f, 0.000166138168f, 6.11436772e-05f, 2.2496868e-05f, 8.27659096e-06f, 3.04484934e-06f,              \
+    1.12014584e-06f, 4.12079743e-07f, 1.51595827e-07f},                                                               \
+   {-0.00141279481f, -0.0167976264f, -0.0132876905f, -0.00648208894f, -0.00264833844f, -0.001012792f,                \
+    -0.000377949356f, -0.000139773416f, -5.15194333e-05f, -1.89664479e-05f, -6.9791954e-06f, -2.56775024e-06f,        \
+    -9.44655994e-07f, -3.47524065e-07f, -1.27847571e-07f, -4.70325752e-08f},                                          \
+   {-0.00395656703f, 0.000601978682f, 0.00167655991f, 0.000986082479f, 0.000426482584f, 0.000166343874f,             \
+    6.25175308e-05f, 2.3180226e-05f, 8.55218059e-06f, 3.14951308e-06f, 1.1590937e-06f, 4.26468006e-07f,               \
+    1.56897102e-07f, 5.77203387e-08f, 2.12342783e-08f, 7.81167486e-09f}}
+inline constexpr float kLog1pExpNegative[kTableDegree + 1][kTableIntervals] = FSKIN_LOG1P_EXP_NEGATIVE_TABLE;
+#if defined(__CUDACC__)
+static __constant__ float kLog1pExpNegativeDevice[kTableDegree + 1][kTableIntervals] = FSKIN_LOG1P_EXP_NEGATIVE_TABLE;
+#endif
+#undef FSKIN_LOG1P_EXP_NEGATIVE_TABLE
+
+// The largest a the table covers, just below 16 so that int(a) <= 15.
+constexpr float kTableEnd = 15.9999f;
+
+FSKIN_KERNEL_INLINE float log1p_exp_negative(float a) {
+  const float clamped = a < kTableEnd ? a : kTableEnd;
+  const int i = static_cast<int>(clamped);
+  const float t = clamped - static_cast<float>(i);
+#if defined(__CUDA_ARCH__)
+  const auto& c = kLog1pExpNegativeDevice;
+#else
+  const auto& c = kLog1pExpNegative;
+#endif
+  float p = c[kTableDegree][i];
+  for (int k = kTableDegree - 1; k >= 0; --k) p = p * t + c[k][i];
+  return a < 16.0f ? p : 0.0f;
 }
 
-// log(1 + u) for u in [0, 1]: 2 atanh(s) with s = u / (2 + u) in [0, 1/3],
-// series to s^15 (truncation < 2e-9).
-template <typename V>
-FSKIN_KERNEL_INLINE V log1p_unit(V u) {
-  const V s = u / (2.0f + u), s2 = s * s;
-  V p = splat<V>(1.0f / 15.0f);
-  p = p * s2 + 1.0f / 13.0f;
-  p = p * s2 + 1.0f / 11.0f;
-  p = p * s2 + 1.0f / 9.0f;
-  p = p * s2 + 1.0f / 7.0f;
-  p = p * s2 + 1.0f / 5.0f;
-  p = p * s2 + 1.0f / 3.0f;
-  p = p * s2 + 1.0f;
-  return 2.0f * s * p;
+#if !defined(__CUDACC__)
+// The same for 16 lanes: each coefficient row is one register, and a lane's
+// coefficient is a variable permute of it (vpermps on AVX-512).
+template <typename V, typename = decltype(V{}[0])>
+FSKIN_KERNEL_INLINE V log1p_exp_negative(V a) {
+  static_assert(sizeof(V) == kTableIntervals * sizeof(float), "the table lookup permutes 16 lanes");
+  using Int = decltype(a < a);
+  const V end = splat<V>(kTableEnd);
+  const V clamped = a < end ? a : end;
+  const Int i = __builtin_convertvector(clamped, Int);
+  const V t = clamped - __builtin_convertvector(i, V);
+  const auto row = [&](int k) {
+    V r;
+    std::memcpy(&r, kLog1pExpNegative[k], sizeof r);
+    return __builtin_shuffle(r, i);
+  };
+  V p = row(kTableDegree);
+  for (int k = kTableDegree - 1; k >= 0; --k) p = p * t + row(k);
+  return a < splat<V>(16.0f) ? p : splat<V>(0.0f);
 }
+#endif
 
 // Softplus with beta = 100, the activation of networks/mlp.h and the INS maps:
 // log(1 + exp(100 x)) / 100 = (max(z, 0) + log1p(exp(-|z|))) / 100, z = 100 x.
@@ -125,7 +163,7 @@ FSKIN_KERNEL_INLINE V softplus100(V x) {
   const V z = 100.0f * x, zero = splat<V>(0.0f);
   const V magnitude = z < zero ? -z : z;
   const V positive = z > zero ? z : zero;
-  return (positive + log1p_unit(exp_nonpositive(-magnitude))) * 0.01f;
+  return (positive + log1p_exp_negative(magnitude)) * 0.01f;
 }
 
 }  // namespace fskin::vector_math
