@@ -65,15 +65,17 @@ torch::Tensor pack(PinImpl& pin, const torch::Tensor& pose) {
     }
     SpaceProjection projection;
     if (c.space_linear_output) projection = {siren_layers.back()->weight, siren_layers.back()->bias};
+    // Pre-activations in units of 1 / beta (pin_pass_core.h's layout).
+    const double beta = OperationMapImpl::kSoftplusBeta;
     for (auto& map : layer->maps()) {
       const auto first = map->fold(pose, projection);
-      parts.push_back(per_frame(first.weight, B, false));
-      parts.push_back(per_frame(first.bias, B, false));
+      parts.push_back(per_frame(first.weight * beta, B, false));
+      parts.push_back(per_frame(first.bias * beta, B, false));
       for (const auto& hidden : map->hidden_layers()) {
         parts.push_back(per_frame(hidden->weight, B, true));
-        parts.push_back(per_frame(hidden->bias, B, true));
+        parts.push_back(per_frame(hidden->bias * beta, B, true));
       }
-      parts.push_back(per_frame(map->last_layer()->weight, B, true));
+      parts.push_back(per_frame(map->last_layer()->weight / beta, B, true));
       parts.push_back(per_frame(map->at_zero_conditioning(), B, true));
     }
   }

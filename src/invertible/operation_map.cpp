@@ -31,8 +31,8 @@ OperationMapImpl::OperationMapImpl(const OperationMapOptions& o) : options_(o) {
 }
 
 torch::Tensor OperationMapImpl::evaluate(torch::Tensor h) {
-  h = torch::softplus(h, 100.0, 20.0);
-  for (auto& layer : hidden_) h = torch::softplus(layer->forward(h), 100.0, 20.0);
+  h = torch::softplus(h, kSoftplusBeta, 20.0);
+  for (auto& layer : hidden_) h = torch::softplus(layer->forward(h), kSoftplusBeta, 20.0);
   return last_->forward(h);
 }
 

@@ -51,6 +51,9 @@ struct FoldedFirstLayer {
 
 class OperationMapImpl : public torch::nn::Module {
  public:
+  // beta of the Softplus between layers.
+  static constexpr double kSoftplusBeta = 100.0;
+
   explicit OperationMapImpl(const OperationMapOptions& options);
   // space = z_s [B, N, E], pose = z_p [B, E] -> [B, N, output_dim]; 0 (to
   // rounding) where z_p = 0. With a projection, space holds the features

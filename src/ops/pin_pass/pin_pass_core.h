@@ -8,10 +8,12 @@
 // Packed parameters of one frame, per coupling layer k at layer_offset[k]:
 //   SIREN sine layers (eq. 8), each: w0 W [out, in] row-major, w0 b [out]
 //   then per operation map (2D layer: rotation, translation; 1D: translation),
-//   eq. 9-12 with the first layer folded for this frame's pose embedding:
-//     A [hidden, features], a [hidden]            (pre = A f + a)
-//     (map_layers - 1) x { W [hidden, hidden], b [hidden] }
-//     W_last [out, hidden], centre [out]          (map = W_last h - centre)
+//   eq. 9-12 with the first layer folded for this frame's pose embedding and
+//   the maps' Softplus(beta) (x) = softplus(beta x) / beta rewritten on
+//   u = beta x, so the kernel runs plain softplus and never multiplies by beta:
+//     beta A [hidden, features], beta a [hidden]   (u = beta (A f + a))
+//     (map_layers - 1) x { W [hidden, hidden], beta b [hidden] }
+//     W_last / beta [out, hidden], centre [out]    (map = W_last h - centre)
 #include <cstdint>
 
 #include "ops/pin_pass/vector_math.h"
@@ -84,10 +86,10 @@ template <typename V>
 FSKIN_KERNEL_INLINE const float* operation_map(const PinShape& s, const float* p, const V* f, int out_dim, V* h, V* g,
                                                V* out) {
   p = dense(p, f, s.features, s.map_hidden, h);
-  for (int o = 0; o < s.map_hidden; ++o) h[o] = vector_math::softplus100(h[o]);
+  for (int o = 0; o < s.map_hidden; ++o) h[o] = vector_math::softplus(h[o]);
   for (int k = 1; k < s.map_layers; ++k) {
     p = dense(p, h, s.map_hidden, s.map_hidden, g);
-    for (int o = 0; o < s.map_hidden; ++o) h[o] = vector_math::softplus100(g[o]);
+    for (int o = 0; o < s.map_hidden; ++o) h[o] = vector_math::softplus(g[o]);
   }
   // Last layer (no bias), minus the map at the zero pose (centring).
   const float* centre = p + static_cast<int64_t>(out_dim) * s.map_hidden;

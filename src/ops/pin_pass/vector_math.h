@@ -8,7 +8,7 @@
 // this way. sin: a polynomial; Softplus: a table of polynomials. Needs IEEE
 // arithmetic: -ffast-math would fold round_nearest away. Accuracy
 // (tests/ops/pin_pass_test.cpp): sin within 2e-7 absolute for |x| <= 100,
-// Softplus within 1e-7 absolute.
+// softplus within 2e-6 absolute.
 #include <cstdint>
 #include <cstring>
 
@@ -70,8 +70,9 @@ FSKIN_KERNEL_INLINE V round_nearest(V x) {
 }
 
 // sin(x) = (-1)^n sin(r), x = n pi + r, |r| <= pi / 2; pi in three parts
-// (Cody-Waite) so r keeps float precision for |x| up to ~1e4; Taylor to r^11
-// (truncation < 6e-8 at pi / 2).
+// (Cody-Waite) so r keeps float precision for |x| up to ~1e4; then
+// r + r^3 q(r^2) with q cubic, fitted by least squares on |r| <= pi / 2 (error
+// 1.2e-7, float rounding; Taylor needs one degree more for that).
 template <typename V>
 FSKIN_KERNEL_INLINE V sin(V x) {
   const V n = round_nearest(x * 0.318309886183790672f);
@@ -79,11 +80,10 @@ FSKIN_KERNEL_INLINE V sin(V x) {
   r = r - n * 9.67502593994140625e-4f;
   r = r - n * 1.509957990978376432e-7f;
   const V r2 = r * r;
-  V p = splat<V>(-2.5052108385441720e-8f);  // -1/11!
-  p = p * r2 + 2.7557319223985893e-6f;
-  p = p * r2 - 1.9841269841269841e-4f;
-  p = p * r2 + 8.3333333333333333e-3f;
-  p = p * r2 - 1.6666666666666667e-1f;
+  V p = splat<V>(2.60246884e-06f);
+  p = p * r2 - 0.000198075344f;
+  p = p * r2 + 0.00833302643f;
+  p = p * r2 - 0.166666567f;
   return flip_sign_if_odd(r + r * r2 * p, n);
 }
 
@@ -135,15 +135,16 @@ FSKIN_KERNEL_INLINE float log1p_exp_negative(float a) {
 
 #if !defined(__CUDACC__)
 // The same for 16 lanes: each coefficient row is one register, and a lane's
-// coefficient is a variable permute of it (vpermps on AVX-512).
+// coefficient is a variable permute of it (vpermps on AVX-512). The interval
+// index saturates at 15 as an integer; lanes past the table get garbage t but
+// are zeroed at the end.
 template <typename V, typename = decltype(V{}[0])>
 FSKIN_KERNEL_INLINE V log1p_exp_negative(V a) {
   static_assert(sizeof(V) == kTableIntervals * sizeof(float), "the table lookup permutes 16 lanes");
   using Int = decltype(a < a);
-  const V end = splat<V>(kTableEnd);
-  const V clamped = a < end ? a : end;
-  const Int i = __builtin_convertvector(clamped, Int);
-  const V t = clamped - __builtin_convertvector(i, V);
+  Int i = __builtin_convertvector(a, Int);
+  i = i < kTableIntervals - 1 ? i : kTableIntervals - 1;
+  const V t = a - __builtin_convertvector(i, V);
   const auto row = [&](int k) {
     V r;
     std::memcpy(&r, kLog1pExpNegative[k], sizeof r);
@@ -153,17 +154,24 @@ FSKIN_KERNEL_INLINE V log1p_exp_negative(V a) {
   for (int k = kTableDegree - 1; k >= 0; --k) p = p * t + row(k);
   return a < splat<V>(16.0f) ? p : splat<V>(0.0f);
 }
+
+// |x| by clearing the sign bit (one AND instead of compare and select).
+template <typename V, typename = decltype(V{}[0])>
+FSKIN_KERNEL_INLINE V magnitude(V x) {
+  using Int = decltype(x < x);
+  return reinterpret_cast<V>(reinterpret_cast<Int>(x) & 0x7fffffff);
+}
 #endif
 
-// Softplus with beta = 100, the activation of networks/mlp.h and the INS maps:
-// log(1 + exp(100 x)) / 100 = (max(z, 0) + log1p(exp(-|z|))) / 100, z = 100 x.
-// (PyTorch switches to x above z = 20; the two differ there by < 3e-11.)
+FSKIN_KERNEL_INLINE float magnitude(float x) { return x < 0.0f ? -x : x; }
+
+// Softplus log(1 + exp(z)) = max(z, 0) + log1p(exp(-|z|)), max(z, 0) = (z + |z|) / 2.
+// The INS maps' Softplus(beta) (x) = softplus(beta x) / beta: the fused pass
+// folds both factors of beta into its packed weights (pin_pass_core.h).
 template <typename V>
-FSKIN_KERNEL_INLINE V softplus100(V x) {
-  const V z = 100.0f * x, zero = splat<V>(0.0f);
-  const V magnitude = z < zero ? -z : z;
-  const V positive = z > zero ? z : zero;
-  return (positive + log1p_exp_negative(magnitude)) * 0.01f;
+FSKIN_KERNEL_INLINE V softplus(V z) {
+  const V a = magnitude(z);
+  return (z + a) * 0.5f + log1p_exp_negative(a);
 }
 
 }  // namespace fskin::vector_math
