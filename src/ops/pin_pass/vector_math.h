@@ -71,8 +71,9 @@ FSKIN_KERNEL_INLINE V round_nearest(V x) {
 
 // sin(x) = (-1)^n sin(r), x = n pi + r, |r| <= pi / 2; pi in three parts
 // (Cody-Waite) so r keeps float precision for |x| up to ~1e4; then
-// r + r^3 q(r^2) with q cubic, fitted by least squares on |r| <= pi / 2 (error
-// 1.2e-7, float rounding; Taylor needs one degree more for that).
+// r + r^3 q(r^2) with q cubic, least squares on |r| <= pi / 2
+// (tools/fit_vector_math.py; error 1.2e-7, float rounding: Taylor needs one
+// degree more for that).
 template <typename V>
 FSKIN_KERNEL_INLINE V sin(V x) {
   const V n = round_nearest(x * 0.318309886183790672f);
@@ -80,17 +81,17 @@ FSKIN_KERNEL_INLINE V sin(V x) {
   r = r - n * 9.67502593994140625e-4f;
   r = r - n * 1.509957990978376432e-7f;
   const V r2 = r * r;
-  V p = splat<V>(2.60246884e-06f);
-  p = p * r2 - 0.000198075344f;
-  p = p * r2 + 0.00833302643f;
-  p = p * r2 - 0.166666567f;
+  V p = splat<V>(2.60655383e-06f);
+  p = p * r2 - 0.000198095804f;
+  p = p * r2 + 0.0083330581f;
+  p = p * r2 - 0.166666582f;
   return flip_sign_if_odd(r + r * r2 * p, n);
 }
 
 // log(1 + exp(-a)) for a >= 0 as one degree-4 polynomial in t = a - i per
 // unit interval [i, i + 1), i = 0..15, and 0 from a = 16 on (where it is
 // < 1.2e-7): Chebyshev interpolation per interval, rows c[k][i] = coefficient
-// of t^k, printed by tools/fit_softplus_table.py (worst error 1.8e-6, never
+// of t^k, printed by tools/fit_vector_math.py (worst error 1.8e-6, never
 // negative). Replaces exp + log1p (a division and two polynomials): the PIN's
 // maps evaluate it once per hidden unit, half the pass's arithmetic before.
 constexpr int kTableIntervals = 16, kTableDegree = 4;
