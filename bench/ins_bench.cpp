@@ -2,7 +2,7 @@
 // one pose, the part of re-posing (two PIN inverses + LBS per pose, eq. 19)
 // that dominates. Sine vs linear SIREN output (the linear one folds into the
 // operation maps, operation_map.h), at the narrow widths of our clothed runs
-// and at the paper's.
+// (maps 16: session 6's default, maps 8: session 8's) and at the paper's.
 #include <benchmark/benchmark.h>
 #include <torch/torch.h>
 
@@ -44,6 +44,7 @@ BENCHMARK(BM_PinInverse)
     ->Args({50000, 6, 32, 16, 0, 0})
     ->Args({50000, 6, 32, 16, 1, 0})
     ->Args({50000, 6, 32, 16, 1, 1})
+    ->Args({50000, 6, 32, 8, 1, 1})
     ->Args({50000, 18, 64, 32, 0, 0})
     ->Args({50000, 18, 64, 32, 1, 0})
     ->Args({50000, 18, 64, 32, 1, 1})
