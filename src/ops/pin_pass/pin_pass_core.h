@@ -53,12 +53,14 @@ inline int64_t packed_layer_size(const PinShape& s, int moved_count) {
   return n;
 }
 
-// out[o] = bias[o] + sum_i weight[o][i] in[i]; returns the pointer past the
-// weights and bias. V: float (one point) or a GCC vector (one point per lane).
-// Eight outputs at a time: eight independent multiply-add chains hide the
-// FMA latency that a single running sum would wait on every step.
-template <typename V>
-FSKIN_KERNEL_INLINE const float* dense(const float* p, const V* in, int in_dim, int out_dim, V* out) {
+// out[o] = activation(bias[o] + sum_i weight[o][i] in[i]); returns the pointer
+// past the weights and bias. V: float (one point) or a GCC vector (one point
+// per lane). Eight outputs at a time: eight independent multiply-add chains
+// hide the FMA latency that a single running sum would wait on every step; the
+// activation runs on them while they are still in registers.
+template <typename V, typename Activation>
+FSKIN_KERNEL_INLINE const float* dense(const float* p, const V* in, int in_dim, int out_dim, V* out,
+                                       Activation activation) {
   constexpr int kBlock = 8;
   const float* bias = p + static_cast<int64_t>(out_dim) * in_dim;
   int o = 0;
@@ -70,26 +72,41 @@ FSKIN_KERNEL_INLINE const float* dense(const float* p, const V* in, int in_dim, 
       const V v = in[i];
       for (int j = 0; j < kBlock; ++j) acc[j] += w[j * in_dim + i] * v;
     }
-    for (int j = 0; j < kBlock; ++j) out[o + j] = acc[j];
+    for (int j = 0; j < kBlock; ++j) out[o + j] = activation(acc[j]);
   }
   for (; o < out_dim; ++o) {
     V acc = vector_math::splat<V>(bias[o]);
     const float* w = p + static_cast<int64_t>(o) * in_dim;
     for (int i = 0; i < in_dim; ++i) acc += w[i] * in[i];
-    out[o] = acc;
+    out[o] = activation(acc);
   }
   return bias + out_dim;
 }
+
+// The two activations, as function objects dense() can inline.
+struct Sine {
+  template <typename V>
+  FSKIN_KERNEL_INLINE V operator()(V x) const {
+    return vector_math::sin(x);
+  }
+};
+struct Softplus {
+  template <typename V>
+  FSKIN_KERNEL_INLINE V operator()(V x) const {
+    return vector_math::softplus(x);
+  }
+};
 
 // One operation map on the features f: writes out_dim values to out.
 template <typename V>
 FSKIN_KERNEL_INLINE const float* operation_map(const PinShape& s, const float* p, const V* f, int out_dim, V* h, V* g,
                                                V* out) {
-  p = dense(p, f, s.features, s.map_hidden, h);
-  for (int o = 0; o < s.map_hidden; ++o) h[o] = vector_math::softplus(h[o]);
+  p = dense(p, f, s.features, s.map_hidden, h, Softplus{});
   for (int k = 1; k < s.map_layers; ++k) {
-    p = dense(p, h, s.map_hidden, s.map_hidden, g);
-    for (int o = 0; o < s.map_hidden; ++o) h[o] = vector_math::softplus(g[o]);
+    p = dense(p, h, s.map_hidden, s.map_hidden, g, Softplus{});
+    V* const next = g;  // the two buffers swap roles
+    g = h;
+    h = next;
   }
   // Last layer (no bias), minus the map at the zero pose (centring).
   const float* centre = p + static_cast<int64_t>(out_dim) * s.map_hidden;
@@ -123,8 +140,7 @@ FSKIN_KERNEL_INLINE void pin_block(const PinShape& s, const float* params, bool 
       const int out = last ? s.features : s.siren_hidden;
       V* dst = last ? t.features : (layer % 2 == 0 ? t.b : t.a);
       const V* src = layer % 2 == 0 ? t.a : t.b;
-      p = dense(p, src, in, out, dst);
-      for (int o = 0; o < out; ++o) dst[o] = vector_math::sin(dst[o]);
+      p = dense(p, src, in, out, dst, Sine{});
       in = out;
     }
     V coupling[3];
