@@ -3,11 +3,7 @@
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "ops/pin_pass/pin_pass_kernel.h"
-
-#ifdef FSKIN_WITH_CUDA
-#include <c10/cuda/CUDAGuard.h>
-#include <c10/cuda/CUDAStream.h>
-#endif
+#include "ops/run_on_device.h"
 
 namespace fskin {
 
@@ -114,16 +110,9 @@ torch::Tensor fused_pin_pass(PinImpl& pin, const torch::Tensor& points, const to
                   params.size(1),
               "fused PIN pass: packed {} floats per frame, the kernel expects a different layout", params.size(1));
   if (out.numel() == 0) return out;
-  if (out.is_cpu()) {
-    pin_pass::pin_pass_cpu(launch);
-  } else {
-#ifdef FSKIN_WITH_CUDA
-    const c10::cuda::CUDAGuard guard(out.device());
-    pin_pass::pin_pass_cuda(launch, c10::cuda::getCurrentCUDAStream().stream());
-#else
-    fail("fused PIN pass: tensors on {} but fskin was built without CUDA kernels", out.device().str());
-#endif
-  }
+  run_on_device(
+      out, "fused PIN pass", [&] { pin_pass::pin_pass_cpu(launch); },
+      [&](void* stream) { pin_pass::pin_pass_cuda(launch, stream); });
   return out;
 }
 

@@ -7,12 +7,8 @@
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "ops/broyden_search/broyden_search_kernel.h"
+#include "ops/run_on_device.h"
 #include "ops/transform_grid_view.h"
-
-#ifdef FSKIN_WITH_CUDA
-#include <c10/cuda/CUDAGuard.h>
-#include <c10/cuda/CUDAStream.h>
-#endif
 
 namespace fskin {
 
@@ -95,17 +91,9 @@ BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const Vo
 
   AT_DISPATCH_FLOATING_TYPES(dtype, "broyden_search", [&] {
     const auto launch = make_launch<scalar_t>(grid, box, xp, starts, weights, I, options, r);
-    if (xp.is_cpu()) {
-      broyden::broyden_search_cpu(launch);
-    } else {
-#ifdef FSKIN_WITH_CUDA
-      FSKIN_CHECK(xp.is_cuda(), "broyden_search: unsupported device {}", xp.device().str());
-      const c10::cuda::CUDAGuard guard(xp.device());
-      broyden::broyden_search_cuda(launch, c10::cuda::getCurrentCUDAStream().stream());
-#else
-      fail("broyden_search: tensors on {} but fskin was built without CUDA kernels", xp.device().str());
-#endif
-    }
+    run_on_device(
+        xp, "broyden_search", [&] { broyden::broyden_search_cpu(launch); },
+        [&](void* stream) { broyden::broyden_search_cuda(launch, stream); });
   });
   return r;
 }

@@ -5,11 +5,7 @@
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "ops/filter_duplicate_roots/filter_duplicate_roots_kernel.h"
-
-#ifdef FSKIN_WITH_CUDA
-#include <c10/cuda/CUDAGuard.h>
-#include <c10/cuda/CUDAStream.h>
-#endif
+#include "ops/run_on_device.h"
 
 namespace fskin {
 
@@ -29,16 +25,9 @@ torch::Tensor filter_duplicate_roots(const torch::Tensor& x_canonical, const tor
     const broyden::FilterLaunch<scalar_t> launch{x.data_ptr<scalar_t>(), out.data_ptr<bool>(), points,
                                                  static_cast<int>(x.size(2)),
                                                  static_cast<scalar_t>(distance * distance)};
-    if (x.is_cpu()) {
-      broyden::filter_duplicate_roots_cpu(launch);
-    } else {
-#ifdef FSKIN_WITH_CUDA
-      const c10::cuda::CUDAGuard guard(x.device());
-      broyden::filter_duplicate_roots_cuda(launch, c10::cuda::getCurrentCUDAStream().stream());
-#else
-      fail("filter_duplicate_roots: tensors on {} but fskin was built without CUDA kernels", x.device().str());
-#endif
-    }
+    run_on_device(
+        x, "filter_duplicate_roots", [&] { broyden::filter_duplicate_roots_cpu(launch); },
+        [&](void* stream) { broyden::filter_duplicate_roots_cuda(launch, stream); });
   });
   return out;
 }

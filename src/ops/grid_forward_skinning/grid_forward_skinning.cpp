@@ -7,12 +7,8 @@
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "ops/grid_forward_skinning/grid_forward_skinning_kernel.h"
+#include "ops/run_on_device.h"
 #include "ops/transform_grid_view.h"
-
-#ifdef FSKIN_WITH_CUDA
-#include <c10/cuda/CUDAGuard.h>
-#include <c10/cuda/CUDAStream.h>
-#endif
 
 namespace fskin {
 
@@ -42,17 +38,9 @@ torch::Tensor grid_forward_skinning(const torch::Tensor& transform_grid, const V
     a.batch = B;
     a.points = N;
     a.out = out.data_ptr<scalar_t>();
-    if (x.is_cpu()) {
-      grid_skinning::grid_forward_skinning_cpu(a);
-    } else {
-#ifdef FSKIN_WITH_CUDA
-      FSKIN_CHECK(x.is_cuda(), "grid_forward_skinning: unsupported device {}", x.device().str());
-      const c10::cuda::CUDAGuard guard(x.device());
-      grid_skinning::grid_forward_skinning_cuda(a, c10::cuda::getCurrentCUDAStream().stream());
-#else
-      fail("grid_forward_skinning: tensors on {} but fskin was built without CUDA kernels", x.device().str());
-#endif
-    }
+    run_on_device(
+        x, "grid_forward_skinning", [&] { grid_skinning::grid_forward_skinning_cpu(a); },
+        [&](void* stream) { grid_skinning::grid_forward_skinning_cuda(a, stream); });
   });
   return out;
 }
