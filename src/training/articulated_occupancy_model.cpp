@@ -40,7 +40,7 @@ torch::Tensor ArticulatedOccupancyModel::through_pin(Pin& pin, const torch::Tens
   const auto& frame = options_.occupancy.input;
   const auto u = frame.apply(x);
   // Inference (evaluation, meshing, re-posing) takes the fused kernel: the same
-  // function to float32 rounding, ~10x faster (docs/ins.md, "Speed").
+  // function to float32 rounding, ~30x faster per PIN pass (docs/ins.md, "Speed").
   if (!torch::GradMode::is_enabled() && u.scalar_type() == torch::kFloat32 && fused_pin_pass_supports(*pin)) {
     return frame.unapply(fused_pin_pass(*pin, u, pose_embedding, inverse));
   }
