@@ -20,7 +20,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
     pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, canonical_sparsity_weight,
     canonical_sparsity_points, grid, part_hidden_dim, part_hidden_layers, start_bones,
-    max_iterations, snarf_roots, eval_chunk_points)
+    max_iterations, snarf_roots, implicit_gradient, eval_chunk_points)
 
 TrainConfig TrainConfig::full() {
   TrainConfig c;
@@ -163,6 +163,9 @@ void TrainConfig::validate() const {
               "config: pin_space_output must be \"sine\" or \"linear\", got \"{}\"", pin_space_output);
   FSKIN_CHECK(snarf_roots == "converged" || snarf_roots == "in-box",
               "config: snarf_roots must be \"converged\" or \"in-box\", got \"{}\"", snarf_roots);
+  FSKIN_CHECK(implicit_gradient == "default" || implicit_gradient == "exact" || implicit_gradient == "approximate",
+              "config: implicit_gradient must be \"default\", \"exact\" or \"approximate\", got \"{}\"",
+              implicit_gradient);
   FSKIN_CHECK(part_hidden_dim >= 1 && part_hidden_layers >= 1, "config: part_hidden_dim and part_hidden_layers must be >= 1");
 }
 
@@ -212,6 +215,9 @@ ArticulatedModelOptions model_options(const TrainConfig& config, const Canonical
   if (o.method == Method::Snarf && config.snarf_roots == "in-box") {
     o.deformer.root_box = o.box;
     o.deformer.remove_duplicates = true;
+  }
+  if (config.implicit_gradient != "default") {
+    o.deformer.gradient = config.implicit_gradient == "exact" ? GradientMode::Exact : GradientMode::Approximate;
   }
   if (config.max_iterations > 0) o.deformer.max_iterations = static_cast<int>(config.max_iterations);
   o.deformer.start_bones = resolve_start_bones(config.start_bones, skeleton);

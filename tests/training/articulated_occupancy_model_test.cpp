@@ -43,5 +43,20 @@ TEST(ArticulatedOccupancyModel, SnarfRootRuleFollowsTheConfig) {
   EXPECT_FALSE(model_options(config, limb.skeleton()).deformer.root_box.has_value());
 }
 
+TEST(ArticulatedOccupancyModel, ImplicitGradientFollowsTheConfig) {
+  const testing::SyntheticLimb limb({0.0});
+  auto config = testing::tiny_config();
+  for (const auto* method : {"snarf", "fast-snarf"}) {
+    config.method = method;
+    config.implicit_gradient = "default";
+    const auto reference = model_options(config, limb.skeleton()).deformer.gradient;
+    EXPECT_EQ(reference, config.method == "snarf" ? GradientMode::Exact : GradientMode::Approximate) << method;
+    config.implicit_gradient = "exact";
+    EXPECT_EQ(model_options(config, limb.skeleton()).deformer.gradient, GradientMode::Exact) << method;
+    config.implicit_gradient = "approximate";
+    EXPECT_EQ(model_options(config, limb.skeleton()).deformer.gradient, GradientMode::Approximate) << method;
+  }
+}
+
 }  // namespace
 }  // namespace fskin

@@ -31,6 +31,7 @@ TEST(TrainConfig, BadInputNamesTheProblem) {
   testing::expect_error([&] { c.set("pin_space_output=\"cosine\""); }, {"pin_space_output", "\"cosine\""});
   testing::expect_error([&] { c.set("pin_space_omega=0"); }, {"pin_space_omega"});
   testing::expect_error([&] { c.set("snarf_roots=inside"); }, {"snarf_roots", "\"inside\""});
+  testing::expect_error([&] { c.set("implicit_gradient=broyden"); }, {"implicit_gradient", "\"broyden\""});
   testing::expect_error([&] { TrainConfig::from_json("{", "my.json", TrainConfig{}); }, {"my.json", "not valid JSON"});
 }
 
