@@ -122,10 +122,11 @@ struct TrainConfig {
   // removed), which isolates the grid from the search rule when the two
   // methods are compared (docs/benchmarks.md).
   std::string snarf_roots = "converged";
-  // The implicit gradient of the roots (SNARF / Fast-SNARF methods): "default"
-  // (each paper's: exact J^-1 at the root for SNARF, eq. 14; Broyden's last
-  // J^-1 for Fast-SNARF, Fast-SNARF eq. 17), "exact" or "approximate". For
-  // ablations that separate the gradient from the grid (docs/benchmarks.md).
+  // The implicit gradient of the roots: "default" (each paper's: exact J^-1 at
+  // the root for SNARF, eq. 14; Broyden's last J^-1 for Fast-SNARF, Fast-SNARF
+  // eq. 17, and for INS, whose LBS search is Fast-SNARF's), "exact" or
+  // "approximate". For ablations that separate the gradient from the grid
+  // (docs/benchmarks.md).
   std::string implicit_gradient = "default";
   int64_t eval_chunk_points = 20000;
 
