@@ -2,7 +2,7 @@
 # The main job on the built-in data: make the built-in character and a posed
 # dataset of it, train Fast-SNARF on the CPU, evaluate it within the training
 # distribution and on out-of-distribution poses, mesh unseen poses, draw
-# pictures and print the summary table. About 11 minutes on 2 cores.
+# pictures and print the summary table. About 5 minutes on 2 cores.
 set -euo pipefail
 FSKIN=${1:-build/fskin}
 OUT=${2:-demo-output}

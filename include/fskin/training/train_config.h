@@ -16,7 +16,7 @@ struct TrainConfig {
   std::string data;  // dataset directory the run trains on (recorded for evaluation)
   std::string method = "fast-snarf";  // method.h: fast-snarf, snarf, pose-onet, back-lbs, back-d, piecewise
   uint64_t seed = 0;
-  int64_t steps = 1000;  // the CPU demo (~8 min on 2 cores); full(): 45k
+  int64_t steps = 1000;  // the CPU demo (~3.5 min on 2 cores); full(): 45k
   // Batch: frames x (near-surface + uniform) points (papers: 8 x (2000 + 250)).
   int64_t frames_per_batch = 8;
   int64_t surface_points = 1000;
