@@ -55,7 +55,9 @@ TEST(BlasKernels, TheCliEndsOnTheBestKernelsThisCpuRuns) {
     GTEST_SKIP() << "OPENBLAS_CORETYPE is set for this test process, so what OpenBLAS detects is not observable";
   }
   const CoreLines lines = run_cli_and_read_core_lines();
-  ASSERT_GE(lines.count, 1) << "OPENBLAS_VERBOSE=2 printed no core";
+  // Only OpenBLAS builds that choose kernels at load time (DYNAMIC_ARCH, as
+  // Debian's) report the choice, and only they can fall back.
+  if (lines.count == 0) GTEST_SKIP() << "this OpenBLAS does not report its kernel choice (no DYNAMIC_ARCH)";
   if (better) {
     // Loaded once with the fallback, then restarted with the better kernels.
     EXPECT_EQ(lines.count, 2);
