@@ -50,10 +50,10 @@ CoreLines run_cli_and_read_core_lines() {
 TEST(BlasKernels, TheCliEndsOnTheBestKernelsThisCpuRuns) {
   const auto detected = openblas_core();
   if (!detected) GTEST_SKIP() << "LibTorch does not multiply through OpenBLAS here (MKL or a GPU build)";
-  const auto better = better_openblas_core(*detected, cpu_vector_features());
   if (std::getenv("OPENBLAS_CORETYPE") != nullptr) {
     GTEST_SKIP() << "OPENBLAS_CORETYPE is set for this test process, so what OpenBLAS detects is not observable";
   }
+  const auto better = better_openblas_core(*detected, cpu_vector_features());
   const CoreLines lines = run_cli_and_read_core_lines();
   // Only OpenBLAS builds that choose kernels at load time (DYNAMIC_ARCH, as
   // Debian's) report the choice, and only they can fall back.
