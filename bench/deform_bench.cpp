@@ -8,9 +8,9 @@
 #include <thread>
 
 #include "fskin/body/character.h"
-#include "fskin/deformers/character_scene.h"
+#include "fskin/benchmarking/character_scene.h"
 #include "fskin/deformers/fast_snarf_deformer.h"
-#include "fskin/fields/voxel_box.h"
+#include "fskin/geometry/voxel_box.h"
 
 namespace {
 

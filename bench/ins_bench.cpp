@@ -2,13 +2,13 @@
 // one pose, the part of re-posing (two PIN inverses + LBS per pose, eq. 19)
 // that dominates. Sine vs linear SIREN output (the linear one folds into the
 // operation maps, operation_map.h), at the narrow widths of our clothed runs
-// (maps 16: session 6's default, maps 8: session 8's) and at the paper's.
+// (maps 16 and maps 8, the default) and at the paper's.
 #include <benchmark/benchmark.h>
 #include <torch/torch.h>
 
 #include <thread>
 
-#include "fskin/invertible/fused_pin_pass.h"
+#include "fskin/ops/pin_pass.h"
 #include "fskin/invertible/pin.h"
 
 namespace {

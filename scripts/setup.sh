@@ -4,7 +4,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake ninja-build ccache pkg-config
+  build-essential cmake ninja-build ccache pkg-config python3
   libtorch-dev
   # Without the optimised BLAS LibTorch falls back to the reference BLAS and
   # MLPs run ~25x slower.

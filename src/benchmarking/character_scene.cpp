@@ -1,4 +1,4 @@
-#include "fskin/deformers/character_scene.h"
+#include "fskin/benchmarking/character_scene.h"
 
 #include <ATen/CPUGeneratorImpl.h>
 

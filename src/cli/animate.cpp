@@ -21,8 +21,8 @@
 #include "fskin/export/gltf_animation.h"
 #include "fskin/export/palette.h"
 #include "fskin/io/mesh_io.h"
-#include "fskin/training/posed_meshing.h"
-#include "fskin/training/trained_run.h"
+#include "fskin/inference/posed_meshing.h"
+#include "fskin/inference/trained_run.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin::cli {

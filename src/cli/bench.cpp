@@ -11,7 +11,7 @@
 #include "cli/commands.h"
 #include "fskin/body/character.h"
 #include "fskin/core/error.h"
-#include "fskin/deformers/character_scene.h"
+#include "fskin/benchmarking/character_scene.h"
 #include "fskin/deformers/fast_snarf_deformer.h"
 #include "fskin/deformers/snarf_deformer.h"
 

@@ -8,16 +8,15 @@
 #include "cli/commands.h"
 #include "fskin/core/error.h"
 #include "fskin/data/dataset.h"
-#include "fskin/training/dataset_source.h"
-#include "fskin/training/evaluation.h"
-#include "fskin/training/trained_run.h"
+#include "fskin/evaluation/evaluation.h"
+#include "fskin/inference/trained_run.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin::cli {
 
 void register_eval(CLI::App& app) {
   struct Options {
-    std::string run, split = "test-within", data;
+    std::string run, split = "test-within", data, checkpoint = "latest";
     int64_t max_frames = -1;
     bool quiet = false;
   };
@@ -28,11 +27,14 @@ void register_eval(CLI::App& app) {
       ->check(CLI::IsMember({"test-within", "test-ood", "val", "train"}));
   cmd->add_option("--data", opt->data, "dataset directory (default: the one the run trained on)");
   cmd->add_option("--max-frames", opt->max_frames, "evaluate only the first N frames");
+  cmd->add_option("--checkpoint", opt->checkpoint,
+                  "which checkpoint: latest (default), best (on the val split, needs validate_every) or a step");
   cmd->add_flag("--quiet", opt->quiet, "no progress bar");
   cmd->callback([opt] {
     std::string split = opt->split;
     std::replace(split.begin(), split.end(), '-', '_');
-    auto run = TrainedRun::load(opt->run, opt->data);
+    const auto checkpoint = CheckpointChoice::parse(opt->checkpoint);
+    auto run = TrainedRun::load(opt->run, opt->data, checkpoint);
     const auto& config = run.config;
     const auto step = run.step;
     auto& model = run.model;
@@ -44,6 +46,7 @@ void register_eval(CLI::App& app) {
     auto json = nlohmann::json::parse(result.to_json());
     json["method"] = config.method;
     json["step"] = step;
+    json["checkpoint"] = checkpoint.describe();
     write_file_atomically(out, json.dump(2) + "\n");
     std::printf("%s, step %lld, split %s (%zu frames)\n%s", config.method.c_str(), static_cast<long long>(step),
                 opt->split.c_str(), frames.size(), result.table().c_str());

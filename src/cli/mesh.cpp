@@ -8,15 +8,15 @@
 #include "fskin/core/error.h"
 #include "fskin/data/dataset_posing.h"
 #include "fskin/io/mesh_io.h"
-#include "fskin/training/posed_meshing.h"
-#include "fskin/training/trained_run.h"
+#include "fskin/inference/posed_meshing.h"
+#include "fskin/inference/trained_run.h"
 #include "fskin/util/progress.h"
 
 namespace fskin::cli {
 
 void register_mesh(CLI::App& app) {
   struct Options {
-    std::string run, pose, out, data, model;
+    std::string run, pose, out, data, model, checkpoint = "latest";
     int64_t index = 0;
     bool canonical = false, quiet = false;
     MeshingFlags meshing;
@@ -34,6 +34,8 @@ void register_mesh(CLI::App& app) {
   cmd->add_option("--data", opt->data, "dataset directory (default: the one the run trained on)");
   cmd->add_option("--model", opt->model,
                   "with --pose: body model .npz the dataset was built from (default: the manifest's)");
+  cmd->add_option("--checkpoint", opt->checkpoint,
+                  "which checkpoint: latest (default), best (on the val split, needs validate_every) or a step");
   cmd->add_flag("--quiet", opt->quiet, "no progress bar");
   cmd->callback([opt] {
     FSKIN_CHECK(opt->canonical || !opt->pose.empty(), "mesh: give --pose FILE (and --index K) or --canonical");
@@ -48,7 +50,7 @@ void register_mesh(CLI::App& app) {
       const int64_t k = opt->index;
       pose = {poses.poses.slice(0, k, k + 1), poses.trans.slice(0, k, k + 1), poses.joint_names};
     }
-    auto run = TrainedRun::load(opt->run, opt->data);
+    auto run = TrainedRun::load(opt->run, opt->data, CheckpointChoice::parse(opt->checkpoint));
     const auto options = meshing_options(opt->meshing, run.config);
     ProgressBar bar("meshing", options.mise.upsampling_steps + 1, !opt->quiet);
     const MiseProgress progress = [&](int64_t level, int64_t, int64_t points) {

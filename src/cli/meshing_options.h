@@ -8,7 +8,7 @@
 
 #include "fskin/core/error.h"
 
-#include "fskin/training/posed_meshing.h"
+#include "fskin/inference/posed_meshing.h"
 #include "fskin/training/train_config.h"
 
 namespace fskin::cli {

@@ -2,7 +2,7 @@
 #include <cstdio>
 
 #include "cli/commands.h"
-#include "fskin/training/run_report.h"
+#include "fskin/evaluation/run_report.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin::cli {

@@ -5,8 +5,9 @@
 #include "cli/commands.h"
 #include "fskin/core/error.h"
 #include "fskin/data/dataset.h"
+#include "fskin/evaluation/evaluation_frame.h"
 #include "fskin/training/dataset_source.h"
-#include "fskin/training/method.h"
+#include "fskin/models/method.h"
 #include "fskin/training/stop_signal.h"
 #include "fskin/training/trainer.h"
 
@@ -46,11 +47,16 @@ void register_train(CLI::App& app) {
 
     const auto dataset = Dataset::load(config.data, "train");
     const DatasetBatchSource source(dataset);
+    std::vector<OccupancyFrame> validation;
+    if (config.validate_every > 0) {
+      validation = evaluation_frames(Dataset::load(config.data, "val"));
+      if (static_cast<int64_t>(validation.size()) > config.validation_frames) validation.resize(config.validation_frames);
+    }
     StopSignal stop;
     std::printf("training %s on %lld frames of %s for %lld steps -> %s\n", config.method.c_str(),
                 static_cast<long long>(dataset.size()), config.data.c_str(), static_cast<long long>(config.steps),
                 opt->out.c_str());
-    const auto result = train(config, source, {opt->out, opt->resume, !opt->quiet, &stop});
+    const auto result = train(config, source, {opt->out, opt->resume, !opt->quiet, &stop, &validation});
     if (result.skinning_prior_loss > 0) {
       std::printf("skinning warm start: %lld steps on the skeleton's nearest-bone prior, cross-entropy %.3f\n",
                   static_cast<long long>(config.skinning_prior_steps), result.skinning_prior_loss);
@@ -59,6 +65,10 @@ void register_train(CLI::App& app) {
                 result.stopped ? "stopped" : "finished", static_cast<long long>(result.last_step), result.first_loss,
                 result.last_loss, result.seconds,
                 result.seconds > 0 ? static_cast<double>(result.last_step - result.first_step) / result.seconds : 0.0);
+    if (result.best_step >= 0) {
+      std::printf("best on %zu val frames: step %lld, IoU_surf %.4f (checkpoint-best.fskin; --checkpoint best)\n",
+                  validation.size(), static_cast<long long>(result.best_step), result.best_iou_surf);
+    }
   });
 }
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
 
 namespace fskin {
 
@@ -20,6 +21,21 @@ Box mesh_bounds(const Mesh& mesh, double scale) {
     const double centre = 0.5 * (l + h), half = 0.5 * (h - l) * scale;
     box.min[a] = centre - half;
     box.max[a] = centre + half;
+  }
+  return box;
+}
+
+Box padded_bounds(const torch::Tensor& points, double padding) {
+  FSKIN_CHECK(std::isfinite(padding) && padding >= 0, "bounds: padding must be >= 0, got {}", padding);
+  expect_finite(points, "bounds: points");
+  const auto p = points.reshape({-1, 3}).to(torch::kFloat64);
+  FSKIN_CHECK(p.size(0) > 0, "bounds: no points");
+  const auto lo = std::get<0>(p.min(0)), hi = std::get<0>(p.max(0));
+  const double margin = padding * (hi - lo).max().item<double>();
+  Box box;
+  for (int axis = 0; axis < 3; ++axis) {
+    box.min[axis] = lo[axis].item<double>() - margin;
+    box.max[axis] = hi[axis].item<double>() + margin;
   }
   return box;
 }

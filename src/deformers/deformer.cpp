@@ -26,6 +26,8 @@ DeformerOptions DeformerOptions::snarf() {
   o.max_iterations = 50;
   o.converge_sq = 1e-10;  // |r| < 1e-5
   o.diverge_sq = 1.0;     // |r| > 1
+  o.denominator_eps = 1e-6;
+  o.final_step = false;
   o.gradient = GradientMode::Exact;
   o.remove_duplicates = false;
   o.chunk_points = 1 << 14;  // the MLP keeps activations per (point, start)
@@ -140,6 +142,16 @@ torch::Tensor Deformer::attach_gradients(const SearchResult& found, const torch:
                                                              : found.inverse_jacobian.index({found.valid});
   const auto x_valid = attach_implicit_gradient(roots, jinv, residual);
   return x_full.index_put({found.valid}, x_valid);
+}
+
+BroydenSearchOptions Deformer::search_options() const {
+  BroydenSearchOptions o;
+  o.max_iterations = options_.max_iterations;
+  o.converge_sq = options_.converge_sq;
+  o.diverge_sq = options_.diverge_sq;
+  o.denominator_eps = options_.denominator_eps;
+  o.final_step = options_.final_step;
+  return o;
 }
 
 torch::Tensor Deformer::spatial_jacobian(int64_t b, const torch::Tensor& x) {

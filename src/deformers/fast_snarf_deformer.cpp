@@ -22,10 +22,7 @@ void FastSnarfDeformer::prepare(const torch::Tensor& bones) {
 
 Deformer::SearchResult FastSnarfDeformer::search(const torch::Tensor& x_posed, const torch::Tensor& start_inverses,
                                                  bool need_inverse_jacobian) {
-  BroydenSearchOptions o;
-  o.max_iterations = options_.max_iterations;
-  o.converge_sq = options_.converge_sq;
-  o.diverge_sq = options_.diverge_sq;
+  BroydenSearchOptions o = search_options();
   o.return_inverse_jacobian = need_inverse_jacobian;
   if (options_.start_bones.mode == StartBones::Mode::Automatic) {
     o.num_starts = options_.start_bones.slots(field_->num_bones());

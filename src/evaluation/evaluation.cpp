@@ -1,18 +1,14 @@
-#include "fskin/training/evaluation.h"
+#include "fskin/evaluation/evaluation.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
 
 #include "fskin/core/error.h"
+#include "fskin/evaluation/iou.h"
 #include "fskin/util/progress.h"
 
 namespace fskin {
-
-double intersection_over_union(const torch::Tensor& predicted, const torch::Tensor& truth) {
-  const double uni = (predicted | truth).sum().item<double>();
-  return uni == 0 ? 1.0 : (predicted & truth).sum().item<double>() / uni;
-}
 
 EvaluationResult evaluate(OccupancyModel& model, const std::vector<OccupancyFrame>& frames,
                           const std::string& split, int64_t chunk_points, bool progress) {

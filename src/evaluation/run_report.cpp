@@ -1,4 +1,4 @@
-#include "fskin/training/run_report.h"
+#include "fskin/evaluation/run_report.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

@@ -1,4 +1,4 @@
-#include "fskin/fields/voxel_box.h"
+#include "fskin/geometry/voxel_box.h"
 
 #include <torch/torch.h>
 

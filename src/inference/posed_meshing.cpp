@@ -1,4 +1,4 @@
-#include "fskin/training/posed_meshing.h"
+#include "fskin/inference/posed_meshing.h"
 
 #include <fmt/format.h>
 #include <torch/torch.h>
@@ -10,27 +10,13 @@
 #include "fskin/core/tensor_checks.h"
 #include "fskin/geometry/mesh_topology.h"
 #include "fskin/skeleton/lbs.h"
-#include "fskin/training/skinning_prior.h"
+#include "fskin/losses/skinning_prior.h"
 #include "fskin/util/progress.h"
 
 namespace fskin {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-Box padded_bounds(const torch::Tensor& points, double padding) {
-  FSKIN_CHECK(std::isfinite(padding) && padding >= 0, "meshing: padding must be >= 0, got {}", padding);
-  expect_finite(points, "meshing box");
-  const auto p = points.reshape({-1, 3}).to(torch::kFloat64);
-  const auto lo = std::get<0>(p.min(0)), hi = std::get<0>(p.max(0));
-  const double margin = padding * (hi - lo).max().item<double>();
-  Box box;
-  for (int axis = 0; axis < 3; ++axis) {
-    box.min[axis] = lo[axis].item<double>() - margin;
-    box.max[axis] = hi[axis].item<double>() + margin;
-  }
-  return box;
-}
 
 void check_skeleton(const CanonicalSkeleton& skeleton) {
   expect_shape(skeleton.extent, {-1, 3}, "meshing: skeleton extent");
@@ -72,12 +58,6 @@ Box posed_meshing_box(OccupancyModel& model, const CanonicalSkeleton& skeleton, 
   return padded_bounds(torch::cat({skinned, joints}), padding);
 }
 
-Box canonical_meshing_box(const CanonicalSkeleton& skeleton, double padding) {
-  check_skeleton(skeleton);
-  return padded_bounds(torch::cat({skeleton.extent.to(torch::kFloat32), skeleton.joints.to(torch::kFloat32)}),
-                       padding);
-}
-
 MeshingResult mesh_posed(OccupancyModel& model, const CanonicalSkeleton& skeleton,
                          const torch::Tensor& bones, const torch::Tensor& pose, const PosedMeshingOptions& options,
                          const MiseProgress& progress) {
@@ -98,7 +78,7 @@ MeshingResult mesh_canonical(OccupancyModel& model, const CanonicalSkeleton& ske
                              const MiseProgress& progress) {
   const auto start = Clock::now();
   expect_shape(pose, {skeleton.joints.size(0), 3}, "meshing: canonical pose");
-  const Box box = canonical_meshing_box(skeleton, options.padding);
+  const Box box = canonical_bounds(skeleton, options.padding);
   torch::NoGradGuard no_grad;
   prepare_for_inference(model);
   const auto p = pose.to(torch::kFloat32).unsqueeze(0);

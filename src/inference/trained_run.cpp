@@ -1,14 +1,14 @@
-#include "fskin/training/trained_run.h"
+#include "fskin/inference/trained_run.h"
 
 #include <filesystem>
 
 #include "fskin/core/error.h"
-#include "fskin/training/dataset_source.h"
 #include "fskin/training/trainer.h"
 
 namespace fskin {
 
-TrainedRun TrainedRun::load(const std::string& run_dir, const std::string& data_dir) {
+TrainedRun TrainedRun::load(const std::string& run_dir, const std::string& data_dir,
+                            const CheckpointChoice& checkpoint) {
   namespace fs = std::filesystem;
   FSKIN_CHECK(fs::is_directory(run_dir), "run directory {} does not exist", run_dir);
   const auto config_path = (fs::path(run_dir) / "config.json").string();
@@ -24,7 +24,7 @@ TrainedRun TrainedRun::load(const std::string& run_dir, const std::string& data_
   const auto dataset = Dataset::load_canonical(run.data_dir);
   run.skeleton = canonical_skeleton(dataset);
   run.canonical_pose = dataset.canonical().pose.to(torch::kFloat32);
-  run.model = load_trained_model(run_dir, run.skeleton, &run.step);
+  run.model = load_trained_model(run_dir, run.skeleton, &run.step, checkpoint);
   return run;
 }
 

@@ -1,4 +1,4 @@
-#include "fskin/training/bootstrap_losses.h"
+#include "fskin/losses/bootstrap_losses.h"
 
 #include <torch/torch.h>
 
@@ -34,6 +34,16 @@ torch::Tensor joint_weight_loss(SkinningField& field, const CanonicalSkeleton& s
   const auto joints = skeleton.joints.to(torch::kFloat32);
   const auto weights = field.weights(joints);  // [J, J]
   return torch::mse_loss(weights, torch::eye(joints.size(0)));
+}
+
+torch::Tensor bootstrap_loss(OccupancyModel& model, const BootstrapInputs& inputs) {
+  FSKIN_CHECK(inputs.skeleton != nullptr, "bootstrap_loss: no skeleton");
+  if (!model.has_canonical_shape()) return {};
+  auto loss = bone_occupancy_loss(model, inputs.bone_points, inputs.pose);
+  if (auto* field = model.deformer_skinning_field()) {
+    loss = loss + inputs.joint_weight * joint_weight_loss(*field, *inputs.skeleton);
+  }
+  return loss;
 }
 
 }  // namespace fskin

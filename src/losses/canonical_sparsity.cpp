@@ -1,4 +1,4 @@
-#include "fskin/training/canonical_sparsity.h"
+#include "fskin/losses/canonical_sparsity.h"
 
 #include <torch/torch.h>
 

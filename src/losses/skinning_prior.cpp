@@ -1,4 +1,4 @@
-#include "fskin/training/skinning_prior.h"
+#include "fskin/losses/skinning_prior.h"
 
 #include <ATen/CPUGeneratorImpl.h>
 #include <torch/torch.h>

@@ -1,4 +1,4 @@
-#include "fskin/training/method.h"
+#include "fskin/models/method.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>

@@ -1,6 +1,7 @@
 #include "fskin/training/checkpoint.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <torch/torch.h>
 #include <zlib.h>
 
@@ -33,13 +34,12 @@ int64_t step_of(const fs::path& path) {
       name.substr(name.size() - suffix.size()) != suffix)
     return -1;
   const std::string digits = name.substr(prefix.size(), name.size() - prefix.size() - suffix.size());
-  if (digits.empty() || !std::all_of(digits.begin(), digits.end(), ::isdigit)) return -1;
+  if (digits.empty() || digits.size() > 18 || !std::all_of(digits.begin(), digits.end(), ::isdigit)) return -1;
   return std::stoll(digits);
 }
 }  // namespace
 
-std::string save_checkpoint(const std::string& dir, int64_t step, const ArchiveWriter& write,
-                            int keep) {
+void write_checkpoint_file(const std::string& path, const ArchiveWriter& write) {
   torch::serialize::OutputArchive archive;
   write(archive);
   std::ostringstream payload_stream;
@@ -52,13 +52,69 @@ std::string save_checkpoint(const std::string& dir, int64_t step, const ArchiveW
   bytes.append(reinterpret_cast<const char*>(&size), sizeof(size));
   bytes.append(reinterpret_cast<const char*>(&crc), sizeof(crc));
   bytes += payload;
-
-  const std::string path = (fs::path(dir) / fmt::format("checkpoint-{:08d}.fskin", step)).string();
   write_file_atomically(path, bytes);
+}
+
+std::string save_checkpoint(const std::string& dir, int64_t step, const ArchiveWriter& write, int keep) {
+  const std::string path = (fs::path(dir) / fmt::format("checkpoint-{:08d}.fskin", step)).string();
+  write_checkpoint_file(path, write);
   const auto all = list_checkpoints(dir);
   for (size_t i = static_cast<size_t>(std::max(keep, 1)); i < all.size(); ++i)
     fs::remove(all[i]);
   return path;
+}
+
+std::string best_checkpoint_path(const std::string& dir) {
+  return (fs::path(dir) / "checkpoint-best.fskin").string();
+}
+
+CheckpointChoice CheckpointChoice::parse(const std::string& text) {
+  CheckpointChoice choice;
+  if (text == "latest") return choice;
+  if (text == "best") {
+    choice.kind = Kind::Best;
+    return choice;
+  }
+  FSKIN_CHECK(!text.empty() && text.size() <= 18 && std::all_of(text.begin(), text.end(), ::isdigit),
+              "--checkpoint '{}': expected a step number, 'latest' or 'best'", text);
+  choice.kind = Kind::Step;
+  choice.step = std::stoll(text);
+  return choice;
+}
+
+std::string CheckpointChoice::describe() const {
+  switch (kind) {
+    case Kind::Latest: return "latest";
+    case Kind::Best: return "best";
+    case Kind::Step: return fmt::format("step {}", step);
+  }
+  return "latest";
+}
+
+std::optional<std::string> find_checkpoint(const std::string& dir, const CheckpointChoice& choice) {
+  const auto numbered = list_checkpoints(dir);
+  std::vector<std::string> steps;
+  for (const auto& path : numbered) steps.push_back(std::to_string(step_of(path)));
+  const std::string available = steps.empty() ? "none" : fmt::format("steps {}", fmt::join(steps, ", "));
+  switch (choice.kind) {
+    case CheckpointChoice::Kind::Latest:
+      return numbered.empty() ? std::nullopt : std::optional<std::string>(numbered.front());
+    case CheckpointChoice::Kind::Best: {
+      const auto path = best_checkpoint_path(dir);
+      FSKIN_CHECK(fs::exists(path),
+                  "{}: no best checkpoint (the run was trained without validation; train with --set "
+                  "validate_every=N). Numbered checkpoints: {}",
+                  dir, available);
+      return path;
+    }
+    case CheckpointChoice::Kind::Step:
+      for (const auto& path : numbered) {
+        if (step_of(path) == choice.step) return path;
+      }
+      fail("{}: no checkpoint of step {} (kept: {}; keep_checkpoints sets how many are kept)", dir, choice.step,
+           available);
+  }
+  return std::nullopt;
 }
 
 std::vector<std::string> list_checkpoints(const std::string& dir) {
@@ -90,8 +146,33 @@ std::string read_checkpoint_payload(const std::string& path) {
   return payload;
 }
 
-std::optional<std::string> load_latest_checkpoint(const std::string& dir,
-                                                  const ArchiveReader& read) {
+namespace {
+// Calls `read` on an intact archive; an error there means the file does not
+// fit this model (another model or fskin version), not damage.
+void read_intact(const std::string& path, torch::serialize::InputArchive& archive, const ArchiveReader& read) {
+  try {
+    read(archive);
+  } catch (const c10::Error& e) {
+    throw Error(fmt::format("{}: intact checkpoint that does not fit this model: {}", path,
+                            e.what_without_backtrace()));
+  } catch (const std::exception& e) {
+    throw Error(fmt::format("{}: intact checkpoint that does not fit this model: {}", path, e.what()));
+  }
+}
+}  // namespace
+
+void load_checkpoint(const std::string& path, const ArchiveReader& read) {
+  torch::serialize::InputArchive archive;
+  const std::string payload = read_checkpoint_payload(path);
+  try {
+    archive.load_from(payload.data(), payload.size());
+  } catch (const std::exception&) {
+    fail("{}: damaged checkpoint (its archive does not load)", path);
+  }
+  read_intact(path, archive, read);
+}
+
+std::optional<std::string> load_latest_checkpoint(const std::string& dir, const ArchiveReader& read) {
   for (const auto& path : list_checkpoints(dir)) {
     torch::serialize::InputArchive archive;
     try {
@@ -101,17 +182,9 @@ std::optional<std::string> load_latest_checkpoint(const std::string& dir,
       std::fprintf(stderr, "fskin: skipping damaged checkpoint: %s\n", e.what());
       continue;
     }
-    // An intact file that does not fit the reader (another model or fskin
-    // version) is an error, not damage: falling back to an older checkpoint
-    // would silently lose training.
-    try {
-      read(archive);
-    } catch (const c10::Error& e) {
-      throw Error(fmt::format("{}: intact checkpoint that does not fit this model: {}", path,
-                              e.what_without_backtrace()));
-    } catch (const std::exception& e) {
-      throw Error(fmt::format("{}: intact checkpoint that does not fit this model: {}", path, e.what()));
-    }
+    // Falling back to an older checkpoint when an intact one does not fit
+    // would silently lose training: that is an error.
+    read_intact(path, archive, read);
     return path;
   }
   return std::nullopt;

@@ -17,6 +17,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     pin_space_output, pin_space_omega, pin_map_hidden_dim, pin_rotation, pin_pose_frame, pin_bone_dropout,
     pin_learning_rate_factor,
     bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, skinning_prior_steps, checkpoint_every, keep_checkpoints,
+    validate_every, validation_frames,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
     pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, canonical_sparsity_weight,
     canonical_sparsity_points, grid, part_hidden_dim, part_hidden_layers, start_bones,
@@ -63,6 +64,15 @@ void TrainConfig::use_method(const std::string& name) {
 std::string TrainConfig::to_json() const { return nlohmann::json(*this).dump(2) + "\n"; }
 
 namespace {
+
+// K of "automatic:K" (throws fskin::Error naming the value unless 1 <= K <= 9999).
+int64_t automatic_start_count(const std::string& spec) {
+  const std::string count = spec.substr(std::string("automatic:").size());
+  FSKIN_CHECK(!count.empty() && count.size() <= 4 && std::all_of(count.begin(), count.end(), ::isdigit) &&
+                  std::stoll(count) >= 1,
+              "config: start_bones '{}': K in automatic:K must be a whole number from 1 to 9999", spec);
+  return std::stoll(count);
+}
 
 nlohmann::json parse_object(const std::string& text, const std::string& context) {
   nlohmann::json object;
@@ -137,11 +147,15 @@ void TrainConfig::validate() const {
   FSKIN_CHECK(skinning_prior_steps >= 0, "config: skinning_prior_steps {} must be >= 0", skinning_prior_steps);
   FSKIN_CHECK(checkpoint_every >= 1 && keep_checkpoints >= 1, "config: checkpoint_every {} and keep_checkpoints {} must be >= 1",
               checkpoint_every, keep_checkpoints);
+  FSKIN_CHECK(validate_every >= 0 && validation_frames >= 1,
+              "config: validate_every {} must be >= 0 and validation_frames {} >= 1", validate_every,
+              validation_frames);
   FSKIN_CHECK(grid.size() == 3 && *std::min_element(grid.begin(), grid.end()) >= 2,
               "config: grid must be [depth, height, width], each >= 2");
   FSKIN_CHECK(max_iterations >= 0 && eval_chunk_points >= 1, "config: max_iterations and eval_chunk_points out of range");
   FSKIN_CHECK(start_bones == "smpl-training" || start_bones == "all" || start_bones.rfind("automatic:", 0) == 0,
               "config: start_bones '{}' must be smpl-training, all or automatic:K", start_bones);
+  if (start_bones.rfind("automatic:", 0) == 0) automatic_start_count(start_bones);
   FSKIN_CHECK(warmup_steps >= 0 && warmup_factor > 0 && warmup_factor <= 1,
               "config: warmup_steps {} must be >= 0 and warmup_factor {} in (0, 1]", warmup_steps, warmup_factor);
   FSKIN_CHECK(decay_fraction >= 0 && decay_fraction <= 1 && decay_factor > 0 && decay_factor <= 1,
@@ -177,7 +191,7 @@ int64_t TrainConfig::bootstrap_steps(int64_t frames) const {
 namespace {
 StartBones resolve_start_bones(const std::string& spec, const CanonicalSkeleton& skeleton) {
   if (spec == "all") return StartBones::all();
-  if (spec.rfind("automatic:", 0) == 0) return StartBones::automatic(std::stoll(spec.substr(10)));
+  if (spec.rfind("automatic:", 0) == 0) return StartBones::automatic(automatic_start_count(spec));
   std::vector<int64_t> indices;
   for (const auto& name : StartBones::smpl_training_names()) {
     const auto it = std::find(skeleton.joint_names.begin(), skeleton.joint_names.end(), name);
@@ -189,17 +203,19 @@ StartBones resolve_start_bones(const std::string& spec, const CanonicalSkeleton&
 }
 }  // namespace
 
-ArticulatedModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& skeleton) {
+ModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& skeleton) {
   config.validate();
   const auto num_bones = static_cast<int64_t>(skeleton.parents.size());
-  ArticulatedModelOptions o;
-  o.method = parse_method(config.method);
+  ModelOptions model;
+  model.method = parse_method(config.method);
+  auto& o = model.forward_skinning;
+  o.method = model.method == Method::Snarf ? Method::Snarf : Method::FastSnarf;
   auto& occ = o.occupancy;
   occ.hidden_dim = config.occupancy_hidden_dim;
   occ.hidden_layers = config.occupancy_hidden_layers;
   occ.skip_layers = config.occupancy_skip_layers;
   // INS keeps the canonical shape pose-free: pose effects live in its PINs.
-  occ.pose_dim = config.pose_conditioning && o.method != Method::Ins ? 3 * (num_bones - 1) : 0;
+  occ.pose_dim = config.pose_conditioning && model.method != Method::Ins ? 3 * (num_bones - 1) : 0;
   occ.pose_embedding_dim = config.pose_embedding_dim;
   occ.pose_layer = config.pose_layer;
   occ.encoding_frequencies = config.encoding_frequencies;
@@ -211,8 +227,8 @@ ArticulatedModelOptions model_options(const TrainConfig& config, const Canonical
   o.skinning.input = occ.input;
   o.box = VoxelBox::around(skeleton.extent.to(torch::kFloat64),
                            GridShape{config.grid[0], config.grid[1], config.grid[2]});
-  o.deformer = o.method == Method::Snarf ? DeformerOptions::snarf() : DeformerOptions::fast_snarf();
-  if (o.method == Method::Snarf && config.snarf_roots == "in-box") {
+  o.deformer = model.method == Method::Snarf ? DeformerOptions::snarf() : DeformerOptions::fast_snarf();
+  if (model.method == Method::Snarf && config.snarf_roots == "in-box") {
     o.deformer.root_box = o.box;
     o.deformer.remove_duplicates = true;
   }
@@ -221,22 +237,28 @@ ArticulatedModelOptions model_options(const TrainConfig& config, const Canonical
   }
   if (config.max_iterations > 0) o.deformer.max_iterations = static_cast<int>(config.max_iterations);
   o.deformer.start_bones = resolve_start_bones(config.start_bones, skeleton);
-  o.pin.num_layers = config.pin_layers;
-  o.pin.pose.num_bones = num_bones;
-  o.pin.pose.per_bone_dim = config.pin_per_bone_dim;
-  o.pin.pose.hidden_dim = config.pin_pose_hidden_dim;
-  o.pin.pose.rotation = parse_rotation_encoding(config.pin_rotation);
-  o.pin.pose.frame = parse_pose_frame(config.pin_pose_frame);
-  o.pin.pose.parents = skeleton.parents;
-  o.pin.pose.bone_dropout = config.pin_bone_dropout;
-  o.pin.coupling.embedding_dim = o.pin.pose.embedding_dim();
-  o.pin.coupling.space_hidden_dim = config.pin_space_hidden_dim;
-  o.pin.coupling.space_linear_output = config.pin_space_output == "linear";
-  o.pin.coupling.first_omega = config.pin_space_omega;
-  o.pin.coupling.map_hidden_dim = config.pin_map_hidden_dim;
-  o.pin_learning_rate_factor = config.pin_learning_rate_factor;
+  model.pin.num_layers = config.pin_layers;
+  model.pin.pose.num_bones = num_bones;
+  model.pin.pose.per_bone_dim = config.pin_per_bone_dim;
+  model.pin.pose.hidden_dim = config.pin_pose_hidden_dim;
+  model.pin.pose.rotation = parse_rotation_encoding(config.pin_rotation);
+  model.pin.pose.frame = parse_pose_frame(config.pin_pose_frame);
+  model.pin.pose.parents = skeleton.parents;
+  model.pin.pose.bone_dropout = config.pin_bone_dropout;
+  model.pin.coupling.embedding_dim = model.pin.pose.embedding_dim();
+  model.pin.coupling.space_hidden_dim = config.pin_space_hidden_dim;
+  model.pin.coupling.space_linear_output = config.pin_space_output == "linear";
+  model.pin.coupling.first_omega = config.pin_space_omega;
+  model.pin.coupling.map_hidden_dim = config.pin_map_hidden_dim;
+  model.pin_learning_rate_factor = config.pin_learning_rate_factor;
+  model.part_hidden_dim = config.part_hidden_dim;
+  model.part_hidden_layers = config.part_hidden_layers;
   o.skinning_learning_rate_factor = config.skinning_learning_rate_factor;
-  return o;
+  return model;
+}
+
+std::shared_ptr<OccupancyModel> make_model(const TrainConfig& config, const CanonicalSkeleton& skeleton) {
+  return make_model(model_options(config, skeleton));
 }
 
 }  // namespace fskin

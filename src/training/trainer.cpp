@@ -11,12 +11,12 @@
 #include <sstream>
 
 #include "fskin/core/error.h"
-#include "fskin/training/bootstrap_losses.h"
-#include "fskin/training/canonical_sparsity.h"
+#include "fskin/evaluation/evaluation.h"
+#include "fskin/evaluation/iou.h"
+#include "fskin/losses/bootstrap_losses.h"
+#include "fskin/losses/canonical_sparsity.h"
+#include "fskin/losses/skinning_prior.h"
 #include "fskin/training/checkpoint.h"
-#include "fskin/training/model_factory.h"
-#include "fskin/training/posed_meshing.h"
-#include "fskin/training/skinning_prior.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/util/progress.h"
 
@@ -48,25 +48,30 @@ namespace {
 
 std::string config_path(const std::string& run_dir) { return (fs::path(run_dir) / "config.json").string(); }
 std::string log_path(const std::string& run_dir) { return (fs::path(run_dir) / "log.jsonl").string(); }
+std::string validation_log_path(const std::string& run_dir) {
+  return (fs::path(run_dir) / "validation.jsonl").string();
+}
+std::string best_json_path(const std::string& run_dir) { return (fs::path(run_dir) / "best.json").string(); }
+
+ArchiveWriter state_writer(int64_t step, OccupancyModel& model, torch::optim::Optimizer& optimizer) {
+  return [&model, &optimizer, step](torch::serialize::OutputArchive& archive) {
+    torch::serialize::OutputArchive model_archive, optimizer_archive;
+    model.save(model_archive);
+    optimizer.save(optimizer_archive);
+    archive.write("model", model_archive);
+    archive.write("optimizer", optimizer_archive);
+    archive.write("step", torch::tensor(step));
+  };
+}
 
 void save_state(const std::string& run_dir, int64_t step, OccupancyModel& model,
                 torch::optim::Optimizer& optimizer, int keep) {
-  save_checkpoint(run_dir, step,
-                  [&](torch::serialize::OutputArchive& archive) {
-                    torch::serialize::OutputArchive model_archive, optimizer_archive;
-                    model.save(model_archive);
-                    optimizer.save(optimizer_archive);
-                    archive.write("model", model_archive);
-                    archive.write("optimizer", optimizer_archive);
-                    archive.write("step", torch::tensor(step));
-                  },
-                  keep);
+  save_checkpoint(run_dir, step, state_writer(step, model, optimizer), keep);
 }
 
-std::optional<int64_t> load_state(const std::string& run_dir, OccupancyModel& model,
-                                  torch::optim::Optimizer* optimizer) {
-  int64_t step = 0;
-  const auto path = load_latest_checkpoint(run_dir, [&](torch::serialize::InputArchive& archive) {
+// Reads the model (and the optimiser, when given) of one checkpoint archive; returns its step.
+ArchiveReader state_reader(OccupancyModel& model, torch::optim::Optimizer* optimizer, int64_t& step) {
+  return [&model, optimizer, &step](torch::serialize::InputArchive& archive) {
     torch::serialize::InputArchive model_archive;
     archive.read("model", model_archive);
     model.load(model_archive);
@@ -86,9 +91,27 @@ std::optional<int64_t> load_state(const std::string& run_dir, OccupancyModel& mo
     torch::Tensor t;
     archive.read("step", t);
     step = t.item<int64_t>();
-  });
-  if (!path) return std::nullopt;
+  };
+}
+
+std::optional<int64_t> load_state(const std::string& run_dir, OccupancyModel& model,
+                                  torch::optim::Optimizer* optimizer, const CheckpointChoice& choice = {}) {
+  int64_t step = 0;
+  if (choice.kind == CheckpointChoice::Kind::Latest) {
+    if (!load_latest_checkpoint(run_dir, state_reader(model, optimizer, step))) return std::nullopt;
+    return step;
+  }
+  load_checkpoint(*find_checkpoint(run_dir, choice), state_reader(model, optimizer, step));
   return step;
+}
+
+// Every parameter in exactly one optimiser group: a model that forgets one
+// would silently not train it.
+void check_parameter_groups(OccupancyModel& model, const std::vector<OccupancyModel::ParameterGroup>& groups) {
+  size_t grouped = 0;
+  for (const auto& group : groups) grouped += group.parameters.size();
+  const size_t all = model.parameters().size();
+  FSKIN_CHECK(grouped == all, "train: the model's parameter groups hold {} of its {} parameters", grouped, all);
 }
 
 // On resume the log keeps only the steps the checkpoint contains, so a run
@@ -107,10 +130,20 @@ void truncate_log(const std::string& path, int64_t step) {
   write_file_atomically(path, kept);
 }
 
-double batch_iou(const torch::Tensor& logits, const torch::Tensor& occupancy) {
-  const auto pred = logits > 0, gt = occupancy > 0.5;
-  const double uni = (pred | gt).sum().item<double>();
-  return uni == 0 ? 1.0 : (pred & gt).sum().item<double>() / uni;
+struct BestScore {
+  int64_t step = -1;
+  double iou_bbox = 0, iou_surf = 0;
+};
+
+std::optional<BestScore> read_best(const std::string& run_dir) {
+  const auto path = best_json_path(run_dir);
+  if (!fs::exists(path) || !fs::exists(best_checkpoint_path(run_dir))) return std::nullopt;
+  try {
+    const auto j = nlohmann::json::parse(read_file(path));
+    return BestScore{j.at("step").get<int64_t>(), j.at("iou_bbox").get<double>(), j.at("iou_surf").get<double>()};
+  } catch (const nlohmann::json::exception& e) {
+    fail("{}: malformed ({})", path, e.what());
+  }
 }
 
 }  // namespace
@@ -129,7 +162,9 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
   model.train(true);
   std::vector<torch::optim::OptimizerParamGroup> groups;
   std::vector<double> base_rates;  // per group, before warm-up
-  for (auto& group : model.parameter_groups(config.learning_rate)) {
+  const auto parameter_groups = model.parameter_groups(config.learning_rate);
+  check_parameter_groups(model, parameter_groups);
+  for (auto& group : parameter_groups) {
     groups.emplace_back(group.parameters, std::make_unique<torch::optim::AdamOptions>(group.learning_rate));
     base_rates.push_back(group.learning_rate);
   }
@@ -146,11 +181,20 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
     result_prior_loss = fit_skinning_prior(*model.canonical_skinning_field(), skeleton, config.skinning_prior_steps,
                                            config.learning_rate, step_seed(config.seed, -1));
   }
-  const std::string log_file = log_path(options.run_dir);
+  const bool validating = config.validate_every > 0;
+  FSKIN_CHECK(!validating || (options.validation != nullptr && !options.validation->empty()),
+              "train: validate_every = {} but no validation frames were given", config.validate_every);
+  const std::string log_file = log_path(options.run_dir), validation_file = validation_log_path(options.run_dir);
+  std::optional<BestScore> best;
   if (options.resume) {
     truncate_log(log_file, step);
+    if (fs::exists(validation_file)) truncate_log(validation_file, step);
+    best = read_best(options.run_dir);
   } else {
     write_file_atomically(log_file, std::string());
+    fs::remove(validation_file);
+    fs::remove(best_json_path(options.run_dir));
+    fs::remove(best_checkpoint_path(options.run_dir));
   }
   std::ofstream log(log_file, std::ios::app);
   FSKIN_CHECK(log.good(), "train: cannot append to {}", log_file);
@@ -160,7 +204,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
   result.skinning_prior_loss = result_prior_loss;
   const int64_t bootstrap_steps = config.bootstrap_steps(source.num_frames());
   const bool use_sparsity = config.canonical_sparsity_weight > 0 && model.has_canonical_shape();
-  const Box canonical_box = use_sparsity ? canonical_meshing_box(skeleton, PosedMeshingOptions{}.padding) : Box{};
+  const Box canonical_box = use_sparsity ? canonical_bounds(skeleton) : Box{};
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar("train", std::max<int64_t>(config.steps - step, 0), options.progress);
   int64_t saved_step = options.resume ? step : -1;
@@ -183,7 +227,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
       auto generator = at::make_generator<at::CPUGeneratorImpl>(seed);
       const BootstrapInputs inputs{&skeleton, sample_bone_points(skeleton, config.bone_points_per_bone, generator),
                                    batch.pose, config.joint_weight_loss_weight};
-      const auto extra = model.bootstrap_loss(inputs);
+      const auto extra = bootstrap_loss(model, inputs);
       if (extra.defined()) {
         bootstrap = extra.item<double>();
         loss = loss + extra;
@@ -210,7 +254,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
 
     const double bce_value = bce.item<double>();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
-    const double iou = batch_iou(prediction.logits.detach(), batch.occupancy);
+    const double iou = intersection_over_union(prediction.logits.detach() > 0, batch.occupancy > 0.5);
     if (step == result.first_step + 1) result.first_loss = bce_value;
     result.last_loss = bce_value;
     nlohmann::json line = {{"step", step},
@@ -230,19 +274,40 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
       save_state(options.run_dir, step, model, adam, static_cast<int>(config.keep_checkpoints));
       saved_step = step;
     }
+    if (validating && step % config.validate_every == 0) {
+      const auto scores = evaluate(model, *options.validation, "val", config.eval_chunk_points);
+      model.train(true);
+      const nlohmann::json row = {{"step", step}, {"iou_bbox", scores.mean_iou_bbox}, {"iou_surf", scores.mean_iou_surf}};
+      std::ofstream(validation_file, std::ios::app) << row.dump() << "\n" << std::flush;
+      if (!best || scores.mean_iou_surf > best->iou_surf) {
+        best = BestScore{step, scores.mean_iou_bbox, scores.mean_iou_surf};
+        // The checkpoint first, then best.json naming it: a kill in between
+        // leaves an older best.json whose score the new file only beats.
+        write_checkpoint_file(best_checkpoint_path(options.run_dir), state_writer(step, model, adam));
+        write_file_atomically(best_json_path(options.run_dir), nlohmann::json{{"step", best->step},
+                                                                              {"iou_bbox", best->iou_bbox},
+                                                                              {"iou_surf", best->iou_surf},
+                                                                              {"frames", options.validation->size()}}
+                                                                   .dump(2) + "\n");
+      }
+    }
   }
   bar.finish();
   if (saved_step != step) save_state(options.run_dir, step, model, adam, static_cast<int>(config.keep_checkpoints));
   result.last_step = step;
+  if (best) {
+    result.best_step = best->step;
+    result.best_iou_surf = best->iou_surf;
+  }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 
 std::shared_ptr<OccupancyModel> load_trained_model(const std::string& run_dir, const CanonicalSkeleton& skeleton,
-                                                   int64_t* step) {
+                                                   int64_t* step, const CheckpointChoice& choice) {
   const auto config = TrainConfig::load_run(config_path(run_dir));
   auto model = make_model(config, skeleton);
-  const auto loaded = load_state(run_dir, *model, nullptr);
+  const auto loaded = load_state(run_dir, *model, nullptr, choice);
   FSKIN_CHECK(loaded.has_value(), "{}: no intact checkpoint (was the run trained?)", run_dir);
   if (step) *step = *loaded;
   model->train(false);

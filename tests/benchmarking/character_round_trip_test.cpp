@@ -5,7 +5,7 @@
 #include <torch/torch.h>
 
 #include "fskin/body/character.h"
-#include "fskin/deformers/character_scene.h"
+#include "fskin/benchmarking/character_scene.h"
 #include "fskin/deformers/fast_snarf_deformer.h"
 
 namespace fskin {

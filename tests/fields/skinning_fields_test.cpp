@@ -2,7 +2,7 @@
 #include <torch/torch.h>
 
 #include "fskin/core/error.h"
-#include "fskin/fields/voxel_box.h"
+#include "fskin/geometry/voxel_box.h"
 #include "fskin/fields/mlp_skinning_field.h"
 #include "fskin/fields/preset_skinning_field.h"
 #include "fskin/fields/voxel_skinning_field.h"

@@ -1,10 +1,10 @@
-#include "fskin/training/posed_meshing.h"
+#include "fskin/inference/posed_meshing.h"
 
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
 #include "fskin/geometry/mesh_topology.h"
-#include "fskin/training/model_factory.h"
+#include "fskin/models/model_factory.h"
 #include "fskin/training/trainer.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
@@ -28,7 +28,7 @@ TEST(PosedMeshing, BoxFollowsTheBones) {
   const SyntheticLimb limb({0.0});
   auto model_ptr = make_model(small_config(), limb.skeleton());
   OccupancyModel& model = *model_ptr;
-  const Box canonical = canonical_meshing_box(limb.skeleton(), 0.1);
+  const Box canonical = canonical_bounds(limb.skeleton(), 0.1);
   // Extent x in [-0.75, 0.75], y and z in [-0.15, 0.15]: margin 0.15.
   expect_box_near(canonical, Box{{-0.9, -0.3, -0.3}, {0.9, 0.3, 0.3}}, {0, 0, 0});
   const auto identity = torch::eye(4).expand({3, 4, 4}).contiguous();

@@ -1,11 +1,11 @@
-#include "fskin/training/canonical_sparsity.h"
+#include "fskin/losses/canonical_sparsity.h"
 
 #include <ATen/CPUGeneratorImpl.h>
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
-#include "fskin/training/articulated_occupancy_model.h"
-#include "fskin/training/posed_meshing.h"
+#include "fskin/models/forward_skinning_model.h"
+#include "fskin/data/canonical_skeleton.h"
 #include "fskin/training/trainer.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
@@ -19,8 +19,8 @@ using testing::SyntheticLimb;
 TEST(CanonicalSparsity, IsBceTowardsOutsideAtUniformPointsOfTheBox) {
   const SyntheticLimb limb({0.0});
   torch::manual_seed(0);
-  ArticulatedOccupancyModel model(model_options(testing::tiny_config(), limb.skeleton()));
-  const Box box = canonical_meshing_box(limb.skeleton(), 0.1);
+  ForwardSkinningModel model(model_options(testing::tiny_config(), limb.skeleton()).forward_skinning);
+  const Box box = canonical_bounds(limb.skeleton(), 0.1);
   const auto pose = torch::zeros({2, 3, 3});
   auto generator = at::make_generator<at::CPUGeneratorImpl>(7);
   const auto loss = canonical_sparsity_loss(model, box, pose, 64, generator);

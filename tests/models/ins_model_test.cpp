@@ -1,9 +1,9 @@
-// INS in the articulated model: PIN_d -> LBS search -> PIN_c (INS eq. 16) and
+// The INS model: PIN_d -> LBS search -> PIN_c (INS eq. 16) and
 // re-posing by the inverse chain (eq. 19).
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
-#include "fskin/training/articulated_occupancy_model.h"
+#include "fskin/models/ins_model.h"
 #include "fskin/training/trainer.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
@@ -28,7 +28,7 @@ TrainConfig ins_config(const std::string& space_output = "sine") {
 
 // Every parameter of the PINs and the pose encoder moved off its init, so
 // the identities below are not the trivial ones of a zero-initialised PIN.
-void randomise(ArticulatedOccupancyModel& model) {
+void randomise(InsModel& model) {
   torch::NoGradGuard no_grad;
   for (auto& item : model.named_parameters()) {
     if (item.key().rfind("pin_", 0) == 0 || item.key().rfind("pose_encoder", 0) == 0) {
@@ -43,7 +43,9 @@ INSTANTIATE_TEST_SUITE_P(SpaceOutput, InsModelBothSpaceOutputs, ::testing::Value
 TEST_P(InsModelBothSpaceOutputs, ZeroRelativePoseGivesTheCanonicalShape) {
   const SyntheticLimb limb({0.0});
   torch::manual_seed(0);
-  ArticulatedOccupancyModel model(model_options(ins_config(GetParam()), limb.skeleton()));
+  auto model_ptr = std::dynamic_pointer_cast<InsModel>(make_model(ins_config(GetParam()), limb.skeleton()));
+  ASSERT_NE(model_ptr, nullptr);
+  auto& model = *model_ptr;
   randomise(model);
   model.train(false);
   model.freeze_for_inference();
@@ -64,7 +66,9 @@ TEST_P(InsModelBothSpaceOutputs, RePosedPointsAreFoundAgainByTheSearch) {
   torch::manual_seed(1);
   auto config = ins_config(GetParam());
   config.start_bones = "all";
-  ArticulatedOccupancyModel model(model_options(config, limb.skeleton()));
+  auto model_ptr = std::dynamic_pointer_cast<InsModel>(make_model(config, limb.skeleton()));
+  ASSERT_NE(model_ptr, nullptr);
+  auto& model = *model_ptr;
   randomise(model);
   model.train(false);
   model.freeze_for_inference();
@@ -86,7 +90,9 @@ TEST(InsModel, PinsTrainAtTheirOwnLearningRate) {
   const SyntheticLimb limb({0.0});
   auto config = ins_config();
   config.pin_learning_rate_factor = 0.1;  // the paper's 1e-4 vs 1e-3
-  ArticulatedOccupancyModel model(model_options(config, limb.skeleton()));
+  auto model_ptr = std::dynamic_pointer_cast<InsModel>(make_model(config, limb.skeleton()));
+  ASSERT_NE(model_ptr, nullptr);
+  auto& model = *model_ptr;
   const auto groups = model.parameter_groups(1e-3);
   ASSERT_EQ(groups.size(), 3u);  // occupancy, skinning, PINs + pose encoder
   EXPECT_DOUBLE_EQ(groups[0].learning_rate, 1e-3);

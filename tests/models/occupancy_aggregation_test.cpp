@@ -1,4 +1,4 @@
-#include "fskin/training/occupancy_aggregation.h"
+#include "fskin/models/occupancy_aggregation.h"
 
 #include <gtest/gtest.h>
 #include <torch/torch.h>

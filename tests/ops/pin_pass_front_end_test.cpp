@@ -1,4 +1,4 @@
-#include "fskin/invertible/fused_pin_pass.h"
+#include "fskin/ops/pin_pass.h"
 
 #include <gtest/gtest.h>
 

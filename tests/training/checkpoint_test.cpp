@@ -94,5 +94,43 @@ TEST(Checkpoint, MissingDirectoryHasNoCheckpoints) {
   EXPECT_TRUE(list_checkpoints("/nonexistent/fskin/dir").empty());
 }
 
+TEST(CheckpointChoice, ParsesLatestBestAndSteps) {
+  EXPECT_EQ(CheckpointChoice::parse("latest").kind, CheckpointChoice::Kind::Latest);
+  EXPECT_EQ(CheckpointChoice::parse("best").kind, CheckpointChoice::Kind::Best);
+  const auto step = CheckpointChoice::parse("1200");
+  EXPECT_EQ(step.kind, CheckpointChoice::Kind::Step);
+  EXPECT_EQ(step.step, 1200);
+  EXPECT_EQ(step.describe(), "step 1200");
+  for (const auto* bad : {"", "-3", "12a", "newest", "99999999999999999999"}) {
+    testing::expect_error([&] { CheckpointChoice::parse(bad); }, {"--checkpoint", "'" + std::string(bad) + "'"});
+  }
+}
+
+TEST(CheckpointChoice, FindsTheNamedFileOrListsWhatThereIs) {
+  const auto dir = fresh_dir("choice");
+  save_checkpoint(dir.string(), 10, write_value(1, 10), 3);
+  save_checkpoint(dir.string(), 20, write_value(2, 20), 3);
+  EXPECT_EQ(*find_checkpoint(dir.string(), {}), (dir / "checkpoint-00000020.fskin").string());
+  EXPECT_EQ(*find_checkpoint(dir.string(), CheckpointChoice::parse("10")), (dir / "checkpoint-00000010.fskin").string());
+  testing::expect_error([&] { find_checkpoint(dir.string(), CheckpointChoice::parse("30")); },
+                        {dir.string(), "step 30", "20, 10"});
+  testing::expect_error([&] { find_checkpoint(dir.string(), CheckpointChoice::parse("best")); },
+                        {"no best checkpoint", "validate_every"});
+  write_checkpoint_file(best_checkpoint_path(dir.string()), write_value(7, 10));
+  EXPECT_EQ(*find_checkpoint(dir.string(), CheckpointChoice::parse("best")), best_checkpoint_path(dir.string()));
+  // The best file is outside the numbered rotation: saving more steps keeps it.
+  save_checkpoint(dir.string(), 30, write_value(3, 30), 1);
+  EXPECT_TRUE(fs::exists(best_checkpoint_path(dir.string())));
+  EXPECT_EQ(list_checkpoints(dir.string()).size(), 1u);
+  float value = -1;
+  load_checkpoint(best_checkpoint_path(dir.string()), [&](torch::serialize::InputArchive& a) {
+    torch::Tensor t;
+    a.read("value", t);
+    value = t[0].item<float>();
+  });
+  EXPECT_EQ(value, 7.0f);
+  EXPECT_FALSE(find_checkpoint(fresh_dir("choice_empty").string(), {}).has_value());
+}
+
 }  // namespace
 }  // namespace fskin

@@ -12,6 +12,7 @@
 
 #include "fskin/skeleton/lbs.h"
 #include "fskin/skeleton/rotations.h"
+#include "fskin/evaluation/evaluation_frame.h"
 #include "fskin/training/batch_source.h"
 
 namespace fskin::testing {

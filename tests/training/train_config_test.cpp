@@ -33,6 +33,10 @@ TEST(TrainConfig, BadInputNamesTheProblem) {
   testing::expect_error([&] { c.set("snarf_roots=inside"); }, {"snarf_roots", "\"inside\""});
   testing::expect_error([&] { c.set("implicit_gradient=broyden"); }, {"implicit_gradient", "\"broyden\""});
   testing::expect_error([&] { TrainConfig::from_json("{", "my.json", TrainConfig{}); }, {"my.json", "not valid JSON"});
+  for (const auto* bad : {"automatic:abc", "automatic:", "automatic:0", "automatic:99999999999999999999"}) {
+    testing::expect_error([&] { c.set(std::string("start_bones=") + bad); }, {"start_bones", bad, "1 to 9999"});
+  }
+  testing::expect_error([&] { c.set("validate_every=-1"); }, {"validate_every"});
 }
 
 TEST(TrainConfig, ShippedConfigsLoad) {
@@ -83,7 +87,7 @@ TEST(TrainConfig, RunConfigsWrittenBeforeAKeyExistedKeepTheirBehaviour) {
   saved["pin_space_output"] = "linear";
   std::ofstream(path) << saved.dump();
   EXPECT_EQ(TrainConfig::load_run(path.string()).pin_space_output, "linear");
-  // Keys of session 5 and 6, whose defaults changed when they were added.
+  // Keys whose defaults differ from what runs written without them used.
   for (const auto* key : {"pin_space_omega", "pin_pose_frame", "pin_bone_dropout"}) saved.erase(key);
   std::ofstream(path) << saved.dump();
   const auto old = TrainConfig::load_run(path.string());

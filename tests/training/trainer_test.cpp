@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fskin/training/checkpoint.h"
-#include "fskin/training/evaluation.h"
+#include "fskin/evaluation/evaluation.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
 #include "training/tiny_training.h"
@@ -165,6 +165,51 @@ TEST(Trainer, StopSignalCheckpointsAndReturns) {
   EXPECT_EQ(result.last_step, 0);
   EXPECT_EQ(list_checkpoints(run.string()).size(), 1u);
   testing::expect_error([&] { load_trained_model((run / "nothing").string(), limb.skeleton()); }, {"nothing"});
+}
+
+TEST(Trainer, KeepsTheBestCheckpointOnTheValidationFrames) {
+  const SyntheticLimb limb(training_angles());
+  TrainConfig config = tiny_config();
+  config.steps = 60;
+  config.checkpoint_every = 20;
+  config.keep_checkpoints = 1;
+  config.validate_every = 15;
+  const auto validation = SyntheticLimb::frames({-0.8, 0.4}, 500, 500);
+  const auto run = testing::temp_dir("trainer_best");
+  testing::expect_error([&] { train(config, limb, {run.string(), false, false, nullptr}); },
+                        {"validate_every = 15", "no validation frames"});
+  const auto result = train(config, limb, {run.string(), false, false, nullptr, &validation});
+
+  // One row per validation, and the best one is what best.json and the result name.
+  std::ifstream rows(run / "validation.jsonl");
+  std::vector<std::pair<int64_t, double>> scores;
+  for (std::string line; std::getline(rows, line);) {
+    const auto j = nlohmann::json::parse(line);
+    scores.emplace_back(j.at("step").get<int64_t>(), j.at("iou_surf").get<double>());
+  }
+  ASSERT_EQ(scores.size(), 4u);  // steps 15, 30, 45, 60
+  auto best = scores.front();
+  for (const auto& s : scores) {
+    if (s.second > best.second) best = s;
+  }
+  EXPECT_EQ(result.best_step, best.first);
+  EXPECT_DOUBLE_EQ(result.best_iou_surf, best.second);
+  const auto best_json = nlohmann::json::parse(std::ifstream(run / "best.json"));
+  EXPECT_EQ(best_json.at("step").get<int64_t>(), best.first);
+
+  // --checkpoint best loads that step, and it scores what was recorded; the
+  // numbered rotation (keep 1) holds only the last step.
+  int64_t step = 0;
+  auto model = load_trained_model(run.string(), limb.skeleton(), &step, CheckpointChoice::parse("best"));
+  EXPECT_EQ(step, best.first);
+  EXPECT_DOUBLE_EQ(evaluate(*model, validation, "val").mean_iou_surf, best.second);
+  load_trained_model(run.string(), limb.skeleton(), &step);
+  EXPECT_EQ(step, 60);
+  if (best.first != 60) {
+    testing::expect_error(
+        [&] { load_trained_model(run.string(), limb.skeleton(), &step, CheckpointChoice{CheckpointChoice::Kind::Step, best.first}); },
+        {"no checkpoint of step"});
+  }
 }
 
 TEST(LearningRateSchedule, WarmsUpHoldsThenDecaysByCosineToTheFactor) {

@@ -19,6 +19,9 @@ struct Box {
 
 // Axis-aligned bounds of the vertices, scaled by `scale` about their centre.
 Box mesh_bounds(const Mesh& mesh, double scale = 1.0);
+// Axis-aligned bounds of points [..., 3], padded on every side by `padding`
+// times the longest side (throws fskin::Error on non-finite points).
+Box padded_bounds(const torch::Tensor& points, double padding);
 
 struct SamplingOptions {
   int64_t uniform_points = 100000;  // in the box

@@ -10,6 +10,7 @@
 
 #include "fskin/deformers/start_bones.h"
 #include "fskin/fields/skinning_field.h"
+#include "fskin/ops/broyden_search.h"
 
 namespace fskin {
 
@@ -23,6 +24,8 @@ struct DeformerOptions {
   int max_iterations = 10;
   double converge_sq = 1e-8;  // squared residual norms
   double diverge_sq = 0.25;
+  double denominator_eps = 0;  // SNARF's +-1e-6 on Broyden's denominator
+  bool final_step = true;      // one more quasi-Newton step on convergence (fskin's; the papers' code: none)
   GradientMode gradient = GradientMode::Approximate;
   // Roots outside this canonical box are invalid. Fast-SNARF's search confines
   // them to its grid's box by construction; SNARF's MLP has no box (nullopt).
@@ -32,7 +35,7 @@ struct DeformerOptions {
   int64_t chunk_points = 1 << 18;  // posed points per chunk (bounds temporary memory)
 
   // The reference settings of each paper.
-  static DeformerOptions snarf();       // 50 iterations, |r| < 1e-5, |r| > 1, exact gradient
+  static DeformerOptions snarf();       // 50 iterations, |r| < 1e-5, |r| > 1, exact gradient, no final step
   static DeformerOptions fast_snarf();  // 10 iterations, |r|^2 < 1e-8, |r|^2 > 0.25, approximate
 };
 
@@ -85,6 +88,8 @@ class Deformer {
 
   // Jacobian dd/dx at x [M, 3] of frame b -> [M, 3, 3], by autograd.
   torch::Tensor spatial_jacobian(int64_t b, const torch::Tensor& x);
+  // The solver's settings from options(): iterations, thresholds, denominator, final step.
+  BroydenSearchOptions search_options() const;
   DeformerOptions options_;
 
  private:

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "fskin/training/occupancy_model.h"
-#include "fskin/training/batch_source.h"
+#include "fskin/evaluation/evaluation_frame.h"
+#include "fskin/models/occupancy_model.h"
 
 namespace fskin {
 
@@ -30,9 +30,6 @@ struct EvaluationResult {
   // A human-readable table: one row per frame, then "all" (mean IoUs, summed seconds).
   std::string table() const;
 };
-
-// Intersection over union of two bool masks (1 when both are empty).
-double intersection_over_union(const torch::Tensor& predicted, const torch::Tensor& truth);
 
 // Evaluates `model` (put in inference mode) on the frames, chunk_points posed
 // points at a time.

@@ -4,7 +4,7 @@
 // weights, which the Fast-SNARF deformer blends into per-voxel transforms.
 #include <torch/torch.h>
 
-#include "fskin/fields/voxel_box.h"
+#include "fskin/geometry/voxel_box.h"
 
 namespace fskin {
 

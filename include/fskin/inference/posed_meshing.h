@@ -23,14 +23,14 @@
 #include "fskin/data/point_sampling.h"
 #include "fskin/geometry/mesh.h"
 #include "fskin/geometry/mise.h"
-#include "fskin/training/occupancy_model.h"
-#include "fskin/training/batch_source.h"
+#include "fskin/models/occupancy_model.h"
+#include "fskin/data/canonical_skeleton.h"
 
 namespace fskin {
 
 struct PosedMeshingOptions {
   MiseOptions mise;  // iso 0 on logits, inside above (the defaults)
-  double padding = 0.1;
+  double padding = kCanonicalBoxPadding;
   bool largest_component = false;  // drop floaters: keep the component with the most faces
 };
 
@@ -41,10 +41,10 @@ struct MeshingResult {
   double seconds = 0;   // box, MISE and clean-up
 };
 
-// The boxes described above; bones [J, 4, 4] canonical -> posed.
+// The posed box described above; bones [J, 4, 4] canonical -> posed. The
+// canonical box is canonical_bounds (data/canonical_skeleton.h).
 Box posed_meshing_box(OccupancyModel& model, const CanonicalSkeleton& skeleton,
                       const torch::Tensor& bones, double padding);
-Box canonical_meshing_box(const CanonicalSkeleton& skeleton, double padding);
 
 // The posed surface for bones [J, 4, 4] (canonical -> posed) and pose [J, 3]
 // (the pose condition). Puts the model in inference mode (frozen Fast-SNARF grid).

@@ -1,13 +1,15 @@
 #pragma once
-// A trained run as the commands that use one (mesh, animate) need it: its
-// config, the dataset it trained on, the canonical skeleton of that dataset
-// and the model from the newest intact checkpoint, in inference mode.
+// A trained run as the commands that use one (eval, mesh, animate) need it:
+// its config, the dataset it trained on, the canonical skeleton of that
+// dataset and the model from the chosen checkpoint (default: the newest
+// intact one), in inference mode.
 #include <memory>
 #include <string>
 
 #include "fskin/data/dataset.h"
-#include "fskin/training/occupancy_model.h"
-#include "fskin/training/batch_source.h"
+#include "fskin/data/canonical_skeleton.h"
+#include "fskin/models/occupancy_model.h"
+#include "fskin/training/checkpoint.h"
 #include "fskin/training/train_config.h"
 
 namespace fskin {
@@ -22,8 +24,9 @@ struct TrainedRun {
   int64_t step = 0;
 
   // Throws fskin::Error naming `run_dir` when it is not a run directory, has no
-  // checkpoint or records no dataset (and `data_dir` is empty).
-  static TrainedRun load(const std::string& run_dir, const std::string& data_dir = "");
+  // such checkpoint or records no dataset (and `data_dir` is empty).
+  static TrainedRun load(const std::string& run_dir, const std::string& data_dir = "",
+                         const CheckpointChoice& checkpoint = {});
 };
 
 }  // namespace fskin

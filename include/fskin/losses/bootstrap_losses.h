@@ -7,10 +7,23 @@
 #include <torch/types.h>
 
 #include "fskin/fields/skinning_field.h"
-#include "fskin/training/batch_source.h"
-#include "fskin/training/occupancy_model.h"
+#include "fskin/data/canonical_skeleton.h"
+#include "fskin/models/occupancy_model.h"
 
 namespace fskin {
+
+struct BootstrapInputs {
+  const CanonicalSkeleton* skeleton = nullptr;
+  torch::Tensor bone_points;  // [S, 3] canonical points on the bones (sample_bone_points)
+  torch::Tensor pose;         // [B, J, 3] the batch's poses (shape condition)
+  double joint_weight = 10;   // weight of the joint skinning-weight loss
+};
+
+// The bootstrap losses that apply to `model`, weighted and summed: bone
+// occupancy for models with a canonical shape, plus joint weights for models
+// whose deformer queries a skinning field. Undefined when none applies (the
+// posed-space baselines).
+torch::Tensor bootstrap_loss(OccupancyModel& model, const BootstrapInputs& inputs);
 
 // Per bone segment (parent joint -> joint), `per_bone` points at parameters
 // linspace(0, 1, per_bone) + N(0, 0.1) clamped to [0, 1] (reference values).

@@ -12,7 +12,7 @@
 #include <torch/types.h>
 
 #include "fskin/data/point_sampling.h"
-#include "fskin/training/occupancy_model.h"
+#include "fskin/models/occupancy_model.h"
 
 namespace fskin {
 

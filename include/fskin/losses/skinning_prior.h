@@ -11,7 +11,7 @@
 #include <torch/types.h>
 
 #include "fskin/fields/skinning_field.h"
-#include "fskin/training/batch_source.h"
+#include "fskin/data/canonical_skeleton.h"
 
 namespace fskin {
 

@@ -1,83 +1,81 @@
 #pragma once
-// The papers' articulated model: a canonical occupancy network plus a learned
-// skinning field, joined by a forward-skinning deformer. A posed point's
-// occupancy is the aggregate over its canonical correspondences (SNARF eq. 9).
-//
-// With method Ins, two pose-conditioned invertible networks sit around the
-// differentiable LBS (INS sec. 3.3, eq. 16): a posed point x' goes through
-// PIN_d, the Broyden search finds its LBS roots, PIN_c maps them to the
-// pose-free canonical space. Re-posing (eq. 19) runs the chain backwards on
-// canonical points: PIN_c^-1, forward LBS, PIN_d^-1.
+// SNARF and Fast-SNARF: a canonical occupancy network plus a learned skinning
+// field, joined by a forward-skinning deformer. A posed point's occupancy is
+// the aggregate over its canonical correspondences (SNARF eq. 9). SNARF's
+// deformer queries the skinning MLP at every Broyden step; Fast-SNARF's
+// queries a voxel grid distilled from it every step (Fast-SNARF sec. 4.2).
+// INS (ins_model.h) wraps this model's search in invertible networks.
 #include <torch/torch.h>
 
 #include <memory>
-#include <string>
 
 #include "fskin/canonical/occupancy_network.h"
 #include "fskin/deformers/deformer.h"
 #include "fskin/fields/mlp_skinning_field.h"
-#include "fskin/fields/voxel_box.h"
-#include "fskin/invertible/pin.h"
-#include "fskin/invertible/pose_encoding.h"
-#include "fskin/training/method.h"
-#include "fskin/training/occupancy_model.h"
+#include "fskin/geometry/voxel_box.h"
+#include "fskin/models/method.h"
+#include "fskin/models/occupancy_model.h"
 
 namespace fskin {
 
-struct ArticulatedModelOptions {
-  Method method = Method::FastSnarf;  // FastSnarf, Snarf or Ins (Fast-SNARF's search inside)
+struct ForwardSkinningModelOptions {
+  // Snarf: the deformer queries the skinning MLP; FastSnarf (and INS): a grid
+  // distilled from it over `box`.
+  Method method = Method::FastSnarf;
   OccupancyNetworkOptions occupancy;  // pose_dim > 0 enables pose conditioning
   MlpSkinningFieldOptions skinning;
   VoxelBox box;  // Fast-SNARF's skinning grid (and its validity region)
   DeformerOptions deformer = DeformerOptions::fast_snarf();
-  // Ins: the two PINs (sharing one pose encoder, pin.pose) and their learning
-  // rate relative to the rest (paper: 1e-4 vs 1e-3).
-  PinOptions pin;
-  double pin_learning_rate_factor = 0.1;
   // The skinning network's learning rate relative to the rest (papers: 1).
   double skinning_learning_rate_factor = 1.0;
 };
 
-class ArticulatedOccupancyModel : public OccupancyModel {
+class ForwardSkinningModel : public OccupancyModel {
  public:
-  explicit ArticulatedOccupancyModel(const ArticulatedModelOptions& options);
+  explicit ForwardSkinningModel(const ForwardSkinningModelOptions& options);
 
   OccupancyPrediction predict(const torch::Tensor& points, const torch::Tensor& bones, const torch::Tensor& pose,
                               Aggregation aggregation) override;
-  // Bone occupancy + joint skinning weights (SNARF sec. 3.3).
-  torch::Tensor bootstrap_loss(const BootstrapInputs& inputs) override;
   bool has_canonical_shape() const override { return true; }
   torch::Tensor canonical_logits(const torch::Tensor& x_canonical, const torch::Tensor& pose) override;
   SkinningField* canonical_skinning_field() override { return skinning_.get(); }
+  SkinningField* deformer_skinning_field() override { return &deformer().field(); }
   // Skinning weights the deformer uses at canonical points [..., 3] -> [..., J].
   torch::Tensor skinning_weights(const torch::Tensor& x_canonical);
 
-  // Canonical points [B, V, 3] -> posed [B, V, 3] for bones [B, J, 4, 4]: LBS
-  // with the learned weights, wrapped in PIN_c^-1 / PIN_d^-1 for Ins (eq. 19).
-  // Exact vertex correspondences across poses; for pose-conditioned SNARF it
-  // ignores the pose-dependent shape (mesh each pose instead).
+  // Canonical points [B, V, 3] -> posed [B, V, 3] for bones [B, J, 4, 4] by
+  // LBS with the learned weights: exact vertex correspondences across poses;
+  // for pose-conditioned SNARF it ignores the pose-dependent shape (mesh each
+  // pose instead).
   torch::Tensor repose(const torch::Tensor& x_canonical, const torch::Tensor& bones) override;
-  bool invertible() const { return options_.method == Method::Ins; }
   std::vector<ParameterGroup> parameter_groups(double learning_rate) override;
 
-  // Fast-SNARF / Ins: fix the distilled grid (no MLP pass per query) until the
-  // next train(true). A no-op for SNARF.
+  // Fast-SNARF: fix the distilled grid (no MLP pass per query) until the next
+  // train(true). A no-op for SNARF.
   void freeze_for_inference() override;
   void train(bool on = true) override;
 
-  const ArticulatedModelOptions& options() const { return options_; }
+  const ForwardSkinningModelOptions& options() const { return options_; }
   Deformer& deformer() { return frozen_deformer_ ? *frozen_deformer_ : *deformer_; }
 
+ protected:
+  // Hooks around the search for models that transform space before and after
+  // it (INS). `pose_features` is what encode_pose returned for the batch.
+  virtual torch::Tensor encode_pose(const torch::Tensor& bones, torch::ScalarType dtype) { return {}; }
+  // Posed query points [B, N, 3] -> the deformer's posed space.
+  virtual torch::Tensor to_search_space(const torch::Tensor& points, const torch::Tensor& pose_features) {
+    return points;
+  }
+  // Roots [1, M, 3] of frame b -> the occupancy network's canonical space.
+  virtual torch::Tensor to_shape_space(const torch::Tensor& roots, const torch::Tensor& pose_features, int64_t b) {
+    return roots;
+  }
+
  private:
-  ArticulatedModelOptions options_;
+  ForwardSkinningModelOptions options_;
   OccupancyNetwork occupancy_{nullptr};
   std::shared_ptr<MlpSkinningField> skinning_;
   std::unique_ptr<Deformer> deformer_, frozen_deformer_;
-  PoseEncoder pose_encoder_{nullptr};
-  Pin pin_canonical_{nullptr}, pin_deformed_{nullptr};
-  // A PIN applied in the networks' normalised coordinates, so its rotations
-  // turn about the body's centre rather than the canonical origin (the feet).
-  torch::Tensor through_pin(Pin& pin, const torch::Tensor& x, const torch::Tensor& pose_embedding, bool inverse);
 };
 
 }  // namespace fskin

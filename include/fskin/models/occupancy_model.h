@@ -1,15 +1,15 @@
 #pragma once
-// What training, evaluation and meshing need from a method that predicts the
-// occupancy of posed points: SNARF and Fast-SNARF (articulated_occupancy_model.h),
-// INS, and the baselines of SNARF sec. 4.2 (baselines/). The trainer only sees
-// this interface, so every method trains, resumes and evaluates the same way.
+// The interface every model fskin trains implements: a method that predicts
+// the occupancy of posed points. SNARF and Fast-SNARF (forward_skinning_model.h),
+// INS (ins_model.h) and the baselines of SNARF sec. 4.2 (baselines/). The
+// trainer, the losses, evaluation and meshing see only this interface, so every
+// method trains, resumes and evaluates the same way; model_factory.h builds one.
 #include <torch/torch.h>
 
 #include <vector>
 
 #include "fskin/deformers/deformer.h"
 #include "fskin/fields/skinning_field.h"
-#include "fskin/training/batch_source.h"
 
 namespace fskin {
 
@@ -24,33 +24,12 @@ struct OccupancyPrediction {
   double deformer_seconds = 0, shape_seconds = 0, aggregation_seconds = 0;
 };
 
-// Inputs of the first-epoch bootstrap losses (SNARF sec. 3.3).
-struct BootstrapInputs {
-  const CanonicalSkeleton* skeleton = nullptr;
-  torch::Tensor bone_points;  // [S, 3] canonical points on the bones
-  torch::Tensor pose;         // [B, J, 3] the batch's poses (shape condition)
-  double joint_weight = 10;   // weight of the joint skinning-weight loss
-};
-
-// SNARF's pose condition: the axis-angles of every joint but the root
-// (global orientation), divided by pi. pose [B, J, 3] -> [B, 3 (J - 1)].
-torch::Tensor pose_condition(const torch::Tensor& pose);
-
-// Posed points [B, N, 3] in the frame of the root bone: its canonical ->
-// posed transform undone, so posed-space networks do not have to learn the
-// global orientation and translation (bones [B, J, 4, 4]).
-torch::Tensor to_root_frame(const torch::Tensor& points, const torch::Tensor& bones);
-
 class OccupancyModel : public torch::nn::Module {
  public:
   // Posed points [B, N, 3], bones [B, J, 4, 4] canonical -> posed, pose [B, J, 3]
   // -> occupancy logits [B, N].
   virtual OccupancyPrediction predict(const torch::Tensor& points, const torch::Tensor& bones,
                                       const torch::Tensor& pose, Aggregation aggregation) = 0;
-
-  // The bootstrap losses that apply to this method, weighted and summed; an
-  // undefined tensor when none does (methods without a canonical space).
-  virtual torch::Tensor bootstrap_loss(const BootstrapInputs& inputs);
 
   // Whether the method has a canonical shape (canonical_logits works).
   virtual bool has_canonical_shape() const { return false; }
@@ -63,16 +42,21 @@ class OccupancyModel : public torch::nn::Module {
   // methods without a forward map from canonical space.
   virtual torch::Tensor repose(const torch::Tensor& x_canonical, const torch::Tensor& bones);
 
-  // The learned canonical skinning field, for the skeleton prior's warm start
-  // (skinning_prior.h); nullptr for methods without one.
+  // The learned canonical skinning network (the skeleton prior's warm start,
+  // losses/skinning_prior.h; the posed meshing box); nullptr for methods
+  // without one.
   virtual SkinningField* canonical_skinning_field() { return nullptr; }
+  // The skinning field the deformer queries (Fast-SNARF: the grid distilled
+  // from the network), which the joint-weight bootstrap loss supervises;
+  // nullptr for methods without a deformer.
+  virtual SkinningField* deformer_skinning_field() { return nullptr; }
 
   // Fixes what can be precomputed for inference (Fast-SNARF's grid) until the
   // next train(true).
   virtual void freeze_for_inference() {}
 
-  // Optimiser groups as (parameters, learning rate); by default all at the
-  // base rate (INS trains its invertible networks slower).
+  // Optimiser groups as (parameters, learning rate); together they hold every
+  // parameter once. By default all at the base rate.
   struct ParameterGroup {
     std::vector<torch::Tensor> parameters;
     double learning_rate;

@@ -6,10 +6,11 @@
 // iterations of one (point, start) pair run in registers. Dispatches on the
 // device of its inputs: CPU (at::parallel_for) or CUDA (when built with it).
 // Not differentiable by itself: the deformers attach the implicit gradient
-// (ops/implicit_gradient.h) to the roots it finds.
+// (ops/implicit_gradient.h) to the roots it finds. SNARF's search runs the
+// same solver with residuals from its MLP (ops/broyden_lanes.h).
 #include <torch/types.h>
 
-#include "fskin/fields/voxel_box.h"
+#include "fskin/geometry/voxel_box.h"
 
 namespace fskin {
 
@@ -18,6 +19,8 @@ struct BroydenSearchOptions {
   double converge_sq = 1e-8;  // squared residual norm, (1e-4)^2
   double diverge_sq = 0.25;   // squared residual norm, (0.5)^2
   double denominator_eps = 0.0;
+  // One more quasi-Newton step on convergence (ops/broyden_search/broyden_core.h).
+  bool final_step = true;
   // Per point, keep only the `num_starts` starts s with the largest weight
   // w_s(B_s^-1 x') (automatic start selection, needs start_weights); -1 keeps all S.
   int64_t num_starts = -1;

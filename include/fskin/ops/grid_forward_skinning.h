@@ -9,7 +9,7 @@
 // deformer uses it only where gradients are off (evaluation, meshing, re-posing).
 #include <torch/types.h>
 
-#include "fskin/fields/voxel_box.h"
+#include "fskin/geometry/voxel_box.h"
 
 namespace fskin {
 

@@ -5,7 +5,7 @@
 // runs all coupling layers in registers (ops/pin_pass/). CPU kernel over
 // at::parallel_for, CUDA kernel on CUDA tensors. No gradients: training uses
 // PinImpl::forward_embedded / inverse_embedded. Matches them to ~1e-6 in
-// float32 (tests/invertible/fused_pin_pass_test.cpp).
+// float32 (tests/ops/pin_pass_front_end_test.cpp).
 #include <torch/torch.h>
 
 #include "fskin/invertible/pin.h"

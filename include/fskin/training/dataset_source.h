@@ -1,21 +1,11 @@
 #pragma once
-// The on-disk Dataset (data/dataset.h) as a training batch source and as
-// evaluation frames.
+// The on-disk Dataset (data/dataset.h) as a training batch source.
 #include <vector>
 
 #include "fskin/data/dataset.h"
 #include "fskin/training/batch_source.h"
 
 namespace fskin {
-
-// The canonical skeleton of a dataset: SMPL parents by joint name, the body's
-// canonical mesh as extent, and canonical joint positions estimated from the
-// frames' rest -> posed bone transforms (the manifest stores no joints): for a
-// joint j with parent p, every frame's G_p^-1 G_j rotates about the rest joint
-// r_j, so r_j solves sum_k |(I - R_k) r - t_k|^2, regularised towards the
-// parent's joint where the frames rotate about one axis only (a knee). The
-// root uses G_0 minus the root translation.
-CanonicalSkeleton canonical_skeleton(const Dataset& dataset);
 
 class DatasetBatchSource : public BatchSource {
  public:
@@ -30,6 +20,5 @@ class DatasetBatchSource : public BatchSource {
   CanonicalSkeleton skeleton_;
 };
 
-std::vector<OccupancyFrame> evaluation_frames(const Dataset& dataset);
 
 }  // namespace fskin

@@ -7,8 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "fskin/training/articulated_occupancy_model.h"
-#include "fskin/training/batch_source.h"
+#include <memory>
+
+#include "fskin/data/canonical_skeleton.h"
+#include "fskin/models/model_factory.h"
 
 namespace fskin {
 
@@ -45,6 +47,11 @@ struct TrainConfig {
   int64_t skinning_prior_steps = 100;
   int64_t checkpoint_every = 200;
   int64_t keep_checkpoints = 2;
+  // Every validate_every steps (0: never) evaluate on the first
+  // validation_frames frames of the dataset's val split and keep the best by
+  // IoU_surf as checkpoint-best.fskin (`fskin eval --checkpoint best`).
+  int64_t validate_every = 0;
+  int64_t validation_frames = 10;
   // Occupancy network; the pose vector's width comes from the skeleton.
   int64_t occupancy_hidden_dim = 128;
   int64_t occupancy_hidden_layers = 4;
@@ -67,31 +74,32 @@ struct TrainConfig {
   double skinning_learning_rate_factor = 0.3;
   // 8 x 32 x 32: nearly as good as 16 x 64 x 64 in Fast-SNARF's ablation, 8x fewer voxels.
   std::vector<int64_t> grid{8, 32, 32};
-  // Emptiness prior on the canonical shape (training/canonical_sparsity.h):
+  // Emptiness prior on the canonical shape (losses/canonical_sparsity.h):
   // weight of the BCE towards "outside" at canonical_sparsity_points points
   // per frame, uniform in the canonical meshing box; 0 = off (the papers,
   // full()). Demo: 0.3, which removes most canonical floaters and raised
   // IoU_bbox by 2-3 points (docs/benchmarks.md, "Canonical floaters"); off
   // for INS (use_method): with clipping it cost 0.7 OOD IoU_surf points on the
-  // clothed character (the 6-7 points of session 4's one run without clipping
-  // were probably a training collapse).
+  // clothed character (docs/benchmarks.md, "INS: clipping, pose frame and bone
+  // dropout").
   double canonical_sparsity_weight = 0.3;
   int64_t canonical_sparsity_points = 256;
   // INS: coupling layers per PIN, widths of the pose encoder (per bone) and of
   // the coupling layers' SIREN and maps, rotation encoding, and the PINs'
   // learning rate relative to learning_rate. Defaults: the CPU size measured on
-  // the clothed character (docs/benchmarks.md, "INS ... session 6"; maps 8
-  // instead of 16 since session 8: as accurate over three seeds, re-posing
-  // 1.5x faster); full() and configs/ins-paper.json: the paper's (18 layers,
-  // 5 x 24 = 120, pose MLP 128, SIREN 64, maps 32, 0.1).
+  // the clothed character (docs/benchmarks.md, "INS: clipping, pose frame and
+  // bone dropout"; maps 8 as accurate as 16 over three seeds and re-posing
+  // 1.5x faster, "INS re-posing: cheaper kernel math, fused LBS, maps 8");
+  // full() and configs/ins-paper.json: the paper's (18 layers, 5 x 24 = 120,
+  // pose MLP 128, SIREN 64, maps 32, 0.1).
   int64_t pin_layers = 6;
   int64_t pin_per_bone_dim = 5;
   int64_t pin_pose_hidden_dim = 64;
   int64_t pin_space_hidden_dim = 32;
   // SIREN output layer: "linear" (the SIREN paper's; folds into the maps:
   // re-posing 3.3x and training 1.7x faster on the clothed character,
-  // docs/ins.md) or "sine" (a bounded
-  // embedding; fskin's default before session 4).
+  // docs/ins.md) or "sine" (a bounded embedding; run configs written without
+  // this key load as "sine", TrainConfig::load_run).
   std::string pin_space_output = "linear";
   // w0 of the SIREN's first layer (SIREN paper: 30): its initial frequencies
   // are w0 x U(-1/2, 1/2) radians per unit of the PINs' normalised coordinates
@@ -159,7 +167,9 @@ struct TrainConfig {
 };
 
 // The model a config describes for a skeleton (bones, pose width, voxel box
-// spanning skeleton.extent, start bones by joint name).
-ArticulatedModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& skeleton);
+// spanning skeleton.extent, start bones by joint name); validates the config.
+ModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& skeleton);
+// make_model(model_options(config, skeleton)).
+std::shared_ptr<OccupancyModel> make_model(const TrainConfig& config, const CanonicalSkeleton& skeleton);
 
 }  // namespace fskin

@@ -1,6 +1,7 @@
-#include "fskin/baselines/backward_displacement.h"
+#include "fskin/models/baselines/backward_displacement.h"
 
 #include "fskin/core/error.h"
+#include "fskin/models/pose_condition.h"
 
 namespace fskin {
 

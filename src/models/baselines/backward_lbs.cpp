@@ -1,6 +1,7 @@
-#include "fskin/baselines/backward_lbs.h"
+#include "fskin/models/baselines/backward_lbs.h"
 
 #include "fskin/core/error.h"
+#include "fskin/models/pose_condition.h"
 #include "fskin/skeleton/lbs.h"
 
 namespace fskin {

@@ -1,7 +1,7 @@
-#include "fskin/baselines/backward_warp_model.h"
+#include "fskin/models/baselines/backward_warp_model.h"
 
 #include "fskin/core/error.h"
-#include "fskin/training/bootstrap_losses.h"
+#include "fskin/models/pose_condition.h"
 #include "fskin/util/stopwatch.h"
 
 namespace fskin {
@@ -35,10 +35,6 @@ OccupancyPrediction BackwardWarpModel::predict(const torch::Tensor& points, cons
   out.logits = canonical_logits(x, pose);  // one candidate: nothing to aggregate
   out.shape_seconds = watch.lap();
   return out;
-}
-
-torch::Tensor BackwardWarpModel::bootstrap_loss(const BootstrapInputs& inputs) {
-  return bone_occupancy_loss(*this, inputs.bone_points, inputs.pose);
 }
 
 torch::Tensor BackwardWarpModel::canonical_logits(const torch::Tensor& x_canonical, const torch::Tensor& pose) {

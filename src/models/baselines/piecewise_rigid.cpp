@@ -1,11 +1,11 @@
-#include "fskin/baselines/piecewise_rigid.h"
+#include "fskin/models/baselines/piecewise_rigid.h"
 
 #include <cmath>
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "fskin/skeleton/lbs.h"
-#include "fskin/training/occupancy_aggregation.h"
+#include "fskin/models/occupancy_aggregation.h"
 #include "fskin/util/stopwatch.h"
 
 namespace fskin {

@@ -1,6 +1,7 @@
-#include "fskin/baselines/pose_onet.h"
+#include "fskin/models/baselines/pose_onet.h"
 
 #include "fskin/core/error.h"
+#include "fskin/models/pose_condition.h"
 #include "fskin/util/stopwatch.h"
 
 namespace fskin {

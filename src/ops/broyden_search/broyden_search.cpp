@@ -7,8 +7,8 @@
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "ops/broyden_search/broyden_search_kernel.h"
-#include "ops/run_on_device.h"
-#include "ops/transform_grid_view.h"
+#include "ops/common/run_on_device.h"
+#include "ops/common/transform_grid_view.h"
 
 namespace fskin {
 
@@ -29,7 +29,7 @@ broyden::SearchLaunch<T> make_launch(const torch::Tensor& grid, const VoxelBox& 
   a.starts = static_cast<int>(starts.size(1));
   a.slots = static_cast<int>(slots);
   a.params = {o.max_iterations, static_cast<T>(o.converge_sq), static_cast<T>(o.diverge_sq),
-              static_cast<T>(o.denominator_eps)};
+              static_cast<T>(o.denominator_eps), o.final_step};
   a.x_out = r.x_canonical.data_ptr<T>();
   a.valid_out = r.valid.data_ptr<bool>();
   a.iterations_out = r.iterations.data_ptr<uint8_t>();
@@ -46,7 +46,7 @@ BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const Vo
   box.validate("broyden_search");
   expect_shape(x_posed, {-1, -1, 3}, "broyden_search: x_posed");
   const int64_t B = x_posed.size(0), N = x_posed.size(1);
-  expect_shape(transform_grid, {B, box.shape.depth, box.shape.height, box.shape.width, broyden::kChannels},
+  expect_shape(transform_grid, {B, box.shape.depth, box.shape.height, box.shape.width, kernels::kChannels},
                "broyden_search: transform_grid");
   expect_shape(start_inverses, {B, -1, 4, 4}, "broyden_search: start_inverses");
   const int64_t S = start_inverses.size(1);

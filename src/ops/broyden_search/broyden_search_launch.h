@@ -2,11 +2,12 @@
 // Raw-pointer arguments of one broyden_search launch and the per-(point, start)
 // body shared by the CPU and CUDA kernels. Torch-free so nvcc compiles it.
 #include "ops/broyden_search/broyden_core.h"
+#include "ops/broyden_search/start_selection.h"
 
 namespace fskin::broyden {
 
 // Upper bound on start bones per point (local arrays of the automatic selection).
-constexpr int kMaxStarts = 128;
+constexpr int kMaxStarts = kMaxRankedStarts;
 
 template <typename T>
 struct SearchLaunch {
@@ -42,17 +43,6 @@ FSKIN_HOST_DEVICE void score_starts(const SearchLaunch<T>& a, int64_t pn, T* r) 
   }
 }
 
-// The start holding rank `rank` when sorting scores ascending (ties by index).
-template <typename T>
-FSKIN_HOST_DEVICE int start_of_rank(const T* r, int count, int rank) {
-  for (int s = 0; s < count; ++s) {
-    int smaller = 0;
-    for (int t = 0; t < count; ++t) smaller += (r[t] < r[s]) || (r[t] == r[s] && t < s);
-    if (smaller == rank) return s;
-  }
-  return rank;  // unreachable for a strict total order
-}
-
 // Search of `count` <= L consecutive slots of point `pn` (= b * N + n), slot
 // first_slot + l starting from start bone starts[l].
 template <typename T, int L>
@@ -63,7 +53,7 @@ FSKIN_HOST_DEVICE void search_slots(const SearchLaunch<T>& a, int64_t pn, int fi
   const T* xp = a.x_posed + 3 * pn;
   T x[L][3], jinv[L][9];
   SolveResult res[L];
-  for (int l = 0; l < count; ++l) apply_affine(a.start_inverses + (b * a.starts + starts[l]) * kChannels, xp, x[l]);
+  for (int l = 0; l < count; ++l) kernels::apply_affine(a.start_inverses + (b * a.starts + starts[l]) * kChannels, xp, x[l]);
   solve_lanes<T, L>(g, xp, x, jinv, res, count, a.params);
   for (int l = 0; l < count; ++l) {
     const int64_t o = pn * a.slots + first_slot + l;

@@ -3,14 +3,14 @@
 // spanning a VoxelBox (broyden_search and grid_forward_skinning read it alike).
 #include <torch/types.h>
 
-#include "fskin/fields/voxel_box.h"
-#include "ops/broyden_search/broyden_core.h"
+#include "fskin/geometry/voxel_box.h"
+#include "ops/common/transform_grid.h"
 
 namespace fskin {
 
 template <typename T>
-broyden::GridView<T> transform_grid_view(const torch::Tensor& grid, const VoxelBox& box) {
-  broyden::GridView<T> g{};
+kernels::GridView<T> transform_grid_view(const torch::Tensor& grid, const VoxelBox& box) {
+  kernels::GridView<T> g{};
   const int64_t sizes[3] = {box.shape.width, box.shape.height, box.shape.depth};
   for (int k = 0; k < 3; ++k) {
     // Voxel coordinate f = (u + 1) / 2 * (size - 1) with u = (x + offset) * scale.

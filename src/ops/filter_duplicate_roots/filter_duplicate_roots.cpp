@@ -5,7 +5,7 @@
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "ops/filter_duplicate_roots/filter_duplicate_roots_kernel.h"
-#include "ops/run_on_device.h"
+#include "ops/common/run_on_device.h"
 
 namespace fskin {
 
@@ -22,12 +22,12 @@ torch::Tensor filter_duplicate_roots(const torch::Tensor& x_canonical, const tor
   const int64_t points = x.size(0) * x.size(1);
   if (points == 0 || x.size(2) < 2) return out;
   AT_DISPATCH_FLOATING_TYPES(x.scalar_type(), "filter_duplicate_roots", [&] {
-    const broyden::FilterLaunch<scalar_t> launch{x.data_ptr<scalar_t>(), out.data_ptr<bool>(), points,
+    const kernels::FilterLaunch<scalar_t> launch{x.data_ptr<scalar_t>(), out.data_ptr<bool>(), points,
                                                  static_cast<int>(x.size(2)),
                                                  static_cast<scalar_t>(distance * distance)};
     run_on_device(
-        x, "filter_duplicate_roots", [&] { broyden::filter_duplicate_roots_cpu(launch); },
-        [&](void* stream) { broyden::filter_duplicate_roots_cuda(launch, stream); });
+        x, "filter_duplicate_roots", [&] { kernels::filter_duplicate_roots_cpu(launch); },
+        [&](void* stream) { kernels::filter_duplicate_roots_cuda(launch, stream); });
   });
   return out;
 }

@@ -2,7 +2,7 @@
 // Device kernels of filter_duplicate_roots (torch-free arguments).
 #include <cstdint>
 
-namespace fskin::broyden {
+namespace fskin::kernels {
 
 template <typename T>
 struct FilterLaunch {
@@ -18,4 +18,4 @@ void filter_duplicate_roots_cpu(const FilterLaunch<T>& launch);
 template <typename T>
 void filter_duplicate_roots_cuda(const FilterLaunch<T>& launch, void* stream);
 
-}  // namespace fskin::broyden
+}  // namespace fskin::kernels

@@ -7,8 +7,8 @@
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "ops/grid_forward_skinning/grid_forward_skinning_kernel.h"
-#include "ops/run_on_device.h"
-#include "ops/transform_grid_view.h"
+#include "ops/common/run_on_device.h"
+#include "ops/common/transform_grid_view.h"
 
 namespace fskin {
 
@@ -17,7 +17,7 @@ torch::Tensor grid_forward_skinning(const torch::Tensor& transform_grid, const V
   box.validate("grid_forward_skinning");
   expect_shape(x_canonical, {-1, -1, 3}, "grid_forward_skinning: x_canonical");
   const int64_t B = x_canonical.size(0), N = x_canonical.size(1);
-  expect_shape(transform_grid, {B, box.shape.depth, box.shape.height, box.shape.width, broyden::kChannels},
+  expect_shape(transform_grid, {B, box.shape.depth, box.shape.height, box.shape.width, kernels::kChannels},
                "grid_forward_skinning: transform_grid");
   const auto dtype = x_canonical.scalar_type();
   FSKIN_CHECK(dtype == torch::kFloat32 || dtype == torch::kFloat64,

@@ -1,9 +1,9 @@
-#include "fskin/invertible/fused_pin_pass.h"
+#include "fskin/ops/pin_pass.h"
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "ops/pin_pass/pin_pass_kernel.h"
-#include "ops/run_on_device.h"
+#include "ops/common/run_on_device.h"
 
 namespace fskin {
 

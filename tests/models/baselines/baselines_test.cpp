@@ -3,11 +3,11 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
-#include "fskin/baselines/piecewise_rigid.h"
-#include "fskin/baselines/pose_onet.h"
+#include "fskin/models/baselines/piecewise_rigid.h"
+#include "fskin/models/baselines/pose_onet.h"
 #include "fskin/core/error.h"
 #include "fskin/skeleton/lbs.h"
-#include "fskin/training/model_factory.h"
+#include "fskin/models/model_factory.h"
 #include "fskin/training/trainer.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"

@@ -3,7 +3,7 @@
 // the pose, moves each posed point (in the root bone's frame) to canonical
 // space: x = x'_root + D(x'_root, p). The last layer starts at zero, so the
 // warp starts as the rigid root transform.
-#include "fskin/baselines/backward_warp_model.h"
+#include "fskin/models/baselines/backward_warp_model.h"
 
 namespace fskin {
 

@@ -2,7 +2,7 @@
 // Back-LBS (SNARF sec. 4.2): skinning weights predicted in posed space from the
 // posed point and the pose, w(x', p); the canonical point is found by
 // inverting the blended transform: x = (sum_j w_j B_j)^-1 x'.
-#include "fskin/baselines/backward_warp_model.h"
+#include "fskin/models/baselines/backward_warp_model.h"
 
 namespace fskin {
 

@@ -8,7 +8,7 @@
 #include "fskin/canonical/occupancy_network.h"
 #include "fskin/networks/input_normalization.h"
 #include "fskin/networks/mlp.h"
-#include "fskin/training/occupancy_model.h"
+#include "fskin/models/occupancy_model.h"
 
 namespace fskin {
 
@@ -25,8 +25,6 @@ class BackwardWarpModel : public OccupancyModel {
  public:
   OccupancyPrediction predict(const torch::Tensor& points, const torch::Tensor& bones, const torch::Tensor& pose,
                               Aggregation aggregation) override;
-  // Bone occupancy only: the warp has no canonical skinning weights to bootstrap.
-  torch::Tensor bootstrap_loss(const BootstrapInputs& inputs) override;
   bool has_canonical_shape() const override { return true; }
   torch::Tensor canonical_logits(const torch::Tensor& x_canonical, const torch::Tensor& pose) override;
 

@@ -7,7 +7,7 @@
 #include <torch/torch.h>
 
 #include "fskin/networks/input_normalization.h"
-#include "fskin/training/occupancy_model.h"
+#include "fskin/models/occupancy_model.h"
 
 namespace fskin {
 

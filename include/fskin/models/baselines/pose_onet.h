@@ -4,7 +4,7 @@
 // pose's shape from examples, so it does not generalise to unseen poses: the
 // gap SNARF's Table 1 measures.
 #include "fskin/canonical/occupancy_network.h"
-#include "fskin/training/occupancy_model.h"
+#include "fskin/models/occupancy_model.h"
 
 namespace fskin {
 

@@ -1,12 +1,8 @@
 // CUDA kernel of broyden_search: one thread per (point, slot) pair, all
 // iterations in registers (Fast-SNARF sec. 4.1). Raw pointers only, no
 // LibTorch headers, so nvcc builds it even where LibTorch is CPU-only.
-#include <cuda_runtime.h>
-
-#include <stdexcept>
-#include <string>
-
 #include "ops/broyden_search/broyden_search_kernel.h"
+#include "ops/common/cuda_launch.cuh"
 
 namespace fskin::broyden {
 namespace {
@@ -30,13 +26,8 @@ __global__ void broyden_search_kernel(const SearchLaunch<T> a) {
 
 template <typename T>
 void broyden_search_cuda(const SearchLaunch<T>& launch, void* stream) {
-  const int64_t pairs = launch.batch * launch.points * launch.slots;
-  if (pairs == 0) return;
-  constexpr int kThreads = 128;
-  const int64_t blocks = (pairs + kThreads - 1) / kThreads;
-  broyden_search_kernel<T><<<static_cast<unsigned>(blocks), kThreads, 0, static_cast<cudaStream_t>(stream)>>>(launch);
-  const cudaError_t err = cudaGetLastError();
-  if (err != cudaSuccess) throw std::runtime_error(std::string("broyden_search CUDA launch: ") + cudaGetErrorString(err));
+  kernels::launch_1d("broyden_search", launch.batch * launch.points * launch.slots, 128, stream,
+                     broyden_search_kernel<T>, launch);
 }
 
 template void broyden_search_cuda<float>(const SearchLaunch<float>&, void*);

@@ -1,9 +1,9 @@
 #include <ATen/Parallel.h>
 
-#include "ops/broyden_search/broyden_core.h"
+#include "ops/filter_duplicate_roots/filter_duplicate_roots_core.h"
 #include "ops/filter_duplicate_roots/filter_duplicate_roots_kernel.h"
 
-namespace fskin::broyden {
+namespace fskin::kernels {
 
 template <typename T>
 void filter_duplicate_roots_cpu(const FilterLaunch<T>& a) {
@@ -17,4 +17,4 @@ void filter_duplicate_roots_cpu(const FilterLaunch<T>& a) {
 template void filter_duplicate_roots_cpu<float>(const FilterLaunch<float>&);
 template void filter_duplicate_roots_cpu<double>(const FilterLaunch<double>&);
 
-}  // namespace fskin::broyden
+}  // namespace fskin::kernels

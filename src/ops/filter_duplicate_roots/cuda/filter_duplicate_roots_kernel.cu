@@ -1,13 +1,9 @@
 // CUDA kernel of filter_duplicate_roots: one thread per point (I is small).
-#include <cuda_runtime.h>
-
-#include <stdexcept>
-#include <string>
-
-#include "ops/broyden_search/broyden_core.h"
+#include "ops/common/cuda_launch.cuh"
+#include "ops/filter_duplicate_roots/filter_duplicate_roots_core.h"
 #include "ops/filter_duplicate_roots/filter_duplicate_roots_kernel.h"
 
-namespace fskin::broyden {
+namespace fskin::kernels {
 namespace {
 
 template <typename T>
@@ -21,14 +17,10 @@ __global__ void filter_kernel(const FilterLaunch<T> a) {
 
 template <typename T>
 void filter_duplicate_roots_cuda(const FilterLaunch<T>& a, void* stream) {
-  constexpr int kThreads = 256;
-  const int64_t blocks = (a.points + kThreads - 1) / kThreads;
-  filter_kernel<T><<<static_cast<unsigned>(blocks), kThreads, 0, static_cast<cudaStream_t>(stream)>>>(a);
-  const cudaError_t err = cudaGetLastError();
-  if (err != cudaSuccess) throw std::runtime_error(std::string("filter_duplicate_roots CUDA launch: ") + cudaGetErrorString(err));
+  launch_1d("filter_duplicate_roots", a.points, 256, stream, filter_kernel<T>, a);
 }
 
 template void filter_duplicate_roots_cuda<float>(const FilterLaunch<float>&, void*);
 template void filter_duplicate_roots_cuda<double>(const FilterLaunch<double>&, void*);
 
-}  // namespace fskin::broyden
+}  // namespace fskin::kernels

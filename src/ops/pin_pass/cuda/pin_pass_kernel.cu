@@ -1,10 +1,6 @@
 // CUDA kernel of the fused PIN pass: one thread per point, the same
 // pin_block code as the CPU kernel on a float.
-#include <cuda_runtime.h>
-
-#include <stdexcept>
-#include <string>
-
+#include "ops/common/cuda_launch.cuh"
 #include "ops/pin_pass/pin_pass_kernel.h"
 
 namespace fskin::pin_pass {
@@ -23,13 +19,7 @@ __global__ void pin_pass_kernel(const PinPassLaunch a) {
 }  // namespace
 
 void pin_pass_cuda(const PinPassLaunch& a, void* stream) {
-  constexpr int kThreads = 128;
-  const int64_t total = a.batch * a.count;
-  const int64_t blocks = (total + kThreads - 1) / kThreads;
-  if (blocks == 0) return;
-  pin_pass_kernel<<<static_cast<unsigned>(blocks), kThreads, 0, static_cast<cudaStream_t>(stream)>>>(a);
-  const cudaError_t err = cudaGetLastError();
-  if (err != cudaSuccess) throw std::runtime_error(std::string("fused PIN pass CUDA launch: ") + cudaGetErrorString(err));
+  kernels::launch_1d("fused PIN pass", a.batch * a.count, 128, stream, pin_pass_kernel, a);
 }
 
 }  // namespace fskin::pin_pass
