@@ -43,7 +43,7 @@ FSKIN_HOST_DEVICE void initial_inverse_jacobian(const T* jacobian, int stride, T
 // converged, diverged (or run out of iterations), or takes the quasi-Newton
 // step dx = -J^-1 g (Fast-SNARF eq. 7) and stays active.
 template <typename T>
-FSKIN_HOST_DEVICE LaneState broyden_step(T x[3], const T jinv[9], const T g[3], T dx[3], int k,
+FSKIN_HOST_DEVICE_INLINE LaneState broyden_step(T x[3], const T jinv[9], const T g[3], T dx[3], int k,
                                          const SearchParams<T>& params) {
   const T norm_sq = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
   for (int r = 0; r < 3; ++r) dx[r] = -(jinv[3 * r] * g[0] + jinv[3 * r + 1] * g[1] + jinv[3 * r + 2] * g[2]);
@@ -61,7 +61,7 @@ FSKIN_HOST_DEVICE LaneState broyden_step(T x[3], const T jinv[9], const T g[3], 
 // Good Broyden update of the inverse Jacobian (Fast-SNARF eq. 7):
 // J^-1 += (dx - J^-1 dg) (dx^T J^-1) / (dx^T J^-1 dg).
 template <typename T>
-FSKIN_HOST_DEVICE void broyden_update(T jinv[9], const T dx[3], const T dg[3], T eps) {
+FSKIN_HOST_DEVICE_INLINE void broyden_update(T jinv[9], const T dx[3], const T dg[3], T eps) {
   T u[3], v[3];
   for (int r = 0; r < 3; ++r) u[r] = jinv[3 * r] * dg[0] + jinv[3 * r + 1] * dg[1] + jinv[3 * r + 2] * dg[2];
   for (int col = 0; col < 3; ++col) v[col] = dx[0] * jinv[col] + dx[1] * jinv[3 + col] + dx[2] * jinv[6 + col];
@@ -79,7 +79,7 @@ FSKIN_HOST_DEVICE void broyden_update(T jinv[9], const T dx[3], const T dg[3], T
 // After a step dx: the residual g_new at the new iterate updates J^-1 and
 // becomes the lane's residual.
 template <typename T>
-FSKIN_HOST_DEVICE void broyden_absorb(T jinv[9], T g[3], const T dx[3], const T g_new[3], T eps) {
+FSKIN_HOST_DEVICE_INLINE void broyden_absorb(T jinv[9], T g[3], const T dx[3], const T g_new[3], T eps) {
   T dg[3];
   for (int a = 0; a < 3; ++a) {
     dg[a] = g_new[a] - g[a];
@@ -91,7 +91,7 @@ FSKIN_HOST_DEVICE void broyden_absorb(T jinv[9], T g[3], const T dx[3], const T 
 // Residual g = T(x) x - x' of the forward skinning equation (SNARF eq. 5,
 // Fast-SNARF eq. 6, with T from eq. 14). Returns whether x is inside the box.
 template <typename T>
-FSKIN_HOST_DEVICE bool residual(const GridView<T>& grid, const T x[3], const T x_posed[3], T g[3],
+FSKIN_HOST_DEVICE_INLINE bool residual(const GridView<T>& grid, const T x[3], const T x_posed[3], T g[3],
                                 T transform[kChannels]) {
   const bool inside = kernels::trilinear_fetch(grid, x, transform);
   kernels::apply_affine(transform, x, g);

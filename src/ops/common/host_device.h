@@ -6,3 +6,14 @@
 #else
 #define FSKIN_HOST_DEVICE inline
 #endif
+
+// For the solver's per-lane steps inside the CPU kernels' lane loops: forced
+// inline, the fused search runs at the speed of its hand-inlined loop
+// (docs/benchmarks.md, "One Broyden solver"); without it GCC may keep them out of line.
+#if defined(__CUDACC__)
+#define FSKIN_HOST_DEVICE_INLINE __host__ __device__ __forceinline__
+#elif defined(__GNUC__)
+#define FSKIN_HOST_DEVICE_INLINE inline __attribute__((always_inline))
+#else
+#define FSKIN_HOST_DEVICE_INLINE inline
+#endif
