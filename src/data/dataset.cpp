@@ -22,25 +22,59 @@ nlohmann::json read_manifest(const std::string& dir) {
   } catch (const nlohmann::json::exception& e) {
     fail("{}: not a valid dataset manifest ({})", manifest_path, e.what());
   }
-  FSKIN_CHECK(manifest.value("format", "") == "fskin-dataset", "{}: not an fskin dataset manifest",
-              manifest_path);
-  FSKIN_CHECK(manifest.value("format_version", 0) == kDatasetFormatVersion,
-              "{}: dataset format {} (this fskin reads format {}); rebuild it with `fskin data build`",
-              manifest_path, manifest.value("format_version", 0), kDatasetFormatVersion);
-  FSKIN_CHECK(manifest.value("complete", false),
-              "{}: the build did not finish; re-run `fskin data build` to complete it", dir);
+  FSKIN_CHECK(manifest.is_object(), "{}: not an fskin dataset manifest (not a JSON object)", manifest_path);
+  try {
+    FSKIN_CHECK(manifest.value("format", "") == "fskin-dataset", "{}: not an fskin dataset manifest",
+                manifest_path);
+    FSKIN_CHECK(manifest.value("format_version", 0) == kDatasetFormatVersion,
+                "{}: dataset format {} (this fskin reads format {}); rebuild it with `fskin data build`",
+                manifest_path, manifest.value("format_version", 0), kDatasetFormatVersion);
+    FSKIN_CHECK(manifest.value("complete", false),
+                "{}: the build did not finish; re-run `fskin data build` to complete it", dir);
+  } catch (const nlohmann::json::exception& e) {
+    fail("{}: format, format_version or complete has the wrong type ({})", manifest_path, e.what());
+  }
   return manifest;
 }
+// manifest[key] as T, or an fskin::Error naming the file, the field and what it must be.
+template <typename T>
+T manifest_field(const nlohmann::json& object, const std::string& key, const std::string& path,
+                 const char* expected) {
+  FSKIN_CHECK(object.contains(key), "{}: no field '{}' ({})", path, key, expected);
+  try {
+    return object.at(key).get<T>();
+  } catch (const nlohmann::json::exception&) {
+    fail("{}: field '{}' must be {}, got {}", path, key, expected, object.at(key).type_name());
+  }
+}
+
+// A tree listed parents first: parents[0] = -1 and 0 <= parents[j] < j, which
+// also rules out cycles.
+void check_parents(const std::vector<int64_t>& parents, const std::string& path) {
+  FSKIN_CHECK(!parents.empty(), "{}: the skeleton has no joints", path);
+  FSKIN_CHECK(parents[0] == -1, "{}: parents[0] = {}: the first joint must be the root (parent -1)", path,
+              parents[0]);
+  for (size_t j = 1; j < parents.size(); ++j) {
+    FSKIN_CHECK(parents[j] >= 0 && parents[j] < static_cast<int64_t>(j),
+                "{}: parents[{}] = {} is not an earlier joint (joints are listed parents first, one root)", path,
+                j, parents[j]);
+  }
+}
+
 }  // namespace
 
 Dataset Dataset::load_canonical(const std::string& dir) {
   namespace fs = std::filesystem;
   const auto manifest = read_manifest(dir);
   Dataset dataset;
-  dataset.joint_names_ = manifest["joint_names"].get<std::vector<std::string>>();
-  dataset.parents_ = manifest["parents"].get<std::vector<int64_t>>();
+  const std::string manifest_path = (fs::path(dir) / "manifest.json").string();
+  dataset.joint_names_ = manifest_field<std::vector<std::string>>(manifest, "joint_names", manifest_path,
+                                                                  "a list of joint names");
+  dataset.parents_ = manifest_field<std::vector<int64_t>>(manifest, "parents", manifest_path,
+                                                          "a list of parent joint indices");
   FSKIN_CHECK(dataset.parents_.size() == dataset.joint_names_.size(), "{}/manifest.json: {} parents for {} joints",
               dir, dataset.parents_.size(), dataset.joint_names_.size());
+  check_parents(dataset.parents_, manifest_path);
   const std::string canonical_path = (fs::path(dir) / "canonical.npz").string();
   dataset.canonical_ = DatasetFrame::load(canonical_path, true);
   FSKIN_CHECK(dataset.canonical_.joints.defined() &&
@@ -52,11 +86,21 @@ Dataset Dataset::load_canonical(const std::string& dir) {
 Dataset Dataset::load(const std::string& dir, const std::string& split, bool with_meshes) {
   namespace fs = std::filesystem;
   const auto manifest = read_manifest(dir);
-  FSKIN_CHECK(manifest.contains("splits") && manifest["splits"].contains(split),
+  const std::string manifest_path = (fs::path(dir) / "manifest.json").string();
+  FSKIN_CHECK(manifest.contains("splits") && manifest["splits"].is_object() && manifest["splits"].contains(split),
               "{}/manifest.json: unknown split '{}' (train, val, test_within, test_ood)", dir, split);
+  const auto files = manifest_field<std::vector<std::string>>(manifest["splits"], split, manifest_path + ": splits",
+                                                              "a list of frame file names");
+  for (const auto& file : files) {
+    // Frames are files of this dataset: a relative path that stays inside it.
+    const fs::path path(file);
+    bool escapes = file.empty() || path.is_absolute();
+    for (const auto& part : path) escapes = escapes || part == "..";
+    FSKIN_CHECK(!escapes, "{}: split '{}' lists '{}', which is not a file inside the dataset directory",
+                manifest_path, split, file);
+  }
   Dataset dataset = load_canonical(dir);
   dataset.split_ = split;
-  const auto files = manifest["splits"][split].get<std::vector<std::string>>();
   FSKIN_CHECK(!files.empty(), "{}: split '{}' has no frames", dir, split);
   ProgressBar progress("loading " + split, static_cast<int64_t>(files.size()), files.size() > 20);
   for (const auto& file : files) {

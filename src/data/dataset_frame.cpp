@@ -8,10 +8,33 @@
 
 namespace fskin {
 
+namespace {
+
+// Coordinates beyond this (metres) are corrupt data, not a character: the
+// largest a user may bring (tens of metres) is far below it.
+constexpr double kMaxCoordinate = 1e6;
+
+void expect_plausible(const torch::Tensor& t, const std::string& name) {
+  expect_floating(t, name);
+  expect_finite(t, name);
+  if (t.numel() == 0) return;
+  const double largest = t.abs().max().item<double>();
+  FSKIN_CHECK(largest <= kMaxCoordinate, "{}: implausible magnitude {:g} (|value| <= {:g} expected)", name, largest,
+              kMaxCoordinate);
+}
+
+}  // namespace
+
 void DatasetFrame::validate(const std::string& context) const {
   expect_shape(points, {-1, 3}, context + ": points");
+  FSKIN_CHECK(points.scalar_type() == torch::kFloat32, "{}: points must be float32, got {}", context,
+              c10::toString(points.scalar_type()));
+  expect_plausible(points, context + ": points");
   expect_shape(occupancy, {points.size(0)}, context + ": occupancy");
   FSKIN_CHECK(occupancy.scalar_type() == torch::kUInt8, "{}: occupancy must be uint8", context);
+  FSKIN_CHECK(occupancy.numel() == 0 || occupancy.max().item<int64_t>() <= 1,
+              "{}: occupancy values must be 0 (outside) or 1 (inside), found {}", context,
+              occupancy.numel() == 0 ? 0 : occupancy.max().item<int64_t>());
   FSKIN_CHECK(num_uniform >= 0 && num_uniform <= points.size(0),
               "{}: num_uniform {} outside [0, {}]", context, num_uniform, points.size(0));
   expect_shape(bone_transforms, {-1, 4, 4}, context + ": bone_transforms");
@@ -20,11 +43,18 @@ void DatasetFrame::validate(const std::string& context) const {
   expect_shape(pose, {J, 3}, context + ": pose");
   expect_shape(trans, {3}, context + ": trans");
   expect_shape(box, {2, 3}, context + ": box");
+  expect_plausible(bone_transforms, context + ": bone_transforms");
+  expect_plausible(bone_transforms_rest, context + ": bone_transforms_rest");
+  expect_plausible(pose, context + ": pose");
   if (vertices.defined()) {
     expect_shape(vertices, {-1, 3}, context + ": vertices");
     expect_shape(faces, {-1, 3}, context + ": faces");
+    expect_plausible(vertices, context + ": vertices");
   }
-  if (joints.defined()) expect_shape(joints, {J, 3}, context + ": joints");
+  if (joints.defined()) {
+    expect_shape(joints, {J, 3}, context + ": joints");
+    expect_plausible(joints, context + ": joints");
+  }
 }
 
 void DatasetFrame::save(const std::string& path) const {
