@@ -5,6 +5,7 @@
 
 #include <ctime>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
 
@@ -100,7 +101,11 @@ void register_bench(CLI::App& app) {
     CharacterOptions character;
     character.resolution = opt->resolution;
     const auto model = make_character_model(character);
-    std::printf("threads %d, device %s, starts %s\n", at::get_num_threads(), opt->device.c_str(), opt->starts.c_str());
+    const char* spin = std::getenv("GOMP_SPINCOUNT");
+    const char* policy = std::getenv("OMP_WAIT_POLICY");
+    std::printf("threads %d, device %s, starts %s, OpenMP wait: GOMP_SPINCOUNT=%s OMP_WAIT_POLICY=%s\n",
+                at::get_num_threads(), opt->device.c_str(), opt->starts.c_str(), spin ? spin : "(unset)",
+                policy ? policy : "(unset)");
     std::printf("%-16s %-8s %9s %12s %9s %9s %10s %9s %9s %9s %9s\n", "deformer", "pose", "points", "points/s",
                 "valid/pt", "iters", "total ms", "pre ms", "search ms", "filter ms", "cpu ms");
     for (const auto pose : {ScenePose::Natural, ScenePose::Extreme}) {

@@ -8,14 +8,14 @@
 
 #include "cli/commands.h"
 #include "fskin/core/error.h"
-#include "fskin/util/blas_kernels.h"
+#include "fskin/util/runtime_restart.h"
 #include "fskin/util/blas_threads.h"
 #include "fskin/version.h"
 
 int main(int argc, char** argv) {
-  // May restart the process with faster OpenBLAS kernels (blas_kernels.h);
-  // first, so nothing is done twice.
-  fskin::use_native_blas_kernels(argv);
+  // May restart the process with faster OpenBLAS kernels and a short OpenMP
+  // spin-wait (runtime_restart.h); first, so nothing is done twice.
+  fskin::restart_with_runtime_settings(argv, fskin::is_long_running_command(argc, argv));
   CLI::App app{"fskin: differentiable forward skinning (SNARF, Fast-SNARF, INS)", "fskin"};
   app.set_version_flag("--version", std::string("fskin ") + FSKIN_VERSION);
   app.require_subcommand(1);

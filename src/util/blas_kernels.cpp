@@ -1,7 +1,6 @@
 #include "fskin/util/blas_kernels.h"
 
 #include <dlfcn.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -41,17 +40,12 @@ std::optional<std::string> openblas_core() {
   return std::string(name);
 }
 
-void use_native_blas_kernels(char** argv) {
-  // Set (by the user, or by the restart below): respected, and no loop.
-  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return;
+std::optional<std::string> openblas_core_setting() {
+  // Set (by the user, or by the restart): respected, and no loop.
+  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return std::nullopt;
   const auto detected = openblas_core();
-  if (!detected) return;
-  const auto better = better_openblas_core(*detected, cpu_vector_features());
-  if (!better) return;
-  if (setenv("OPENBLAS_CORETYPE", better->c_str(), 1) != 0) return;
-  execv("/proc/self/exe", argv);
-  // exec failed (no /proc, say): carry on with the kernels we have.
-  unsetenv("OPENBLAS_CORETYPE");
+  if (!detected) return std::nullopt;
+  return better_openblas_core(*detected, cpu_vector_features());
 }
 
 }  // namespace fskin

@@ -9,7 +9,7 @@
 // (AVX-512) kernels on the same 2-core VM (docs/benchmarks.md, "OpenBLAS
 // kernels"). The only way to choose is the OPENBLAS_CORETYPE environment
 // variable, which OpenBLAS reads at load time, so the choice has to be made
-// before the process starts: see use_native_blas_kernels.
+// before the process starts: see runtime_restart.h.
 #include <optional>
 #include <string>
 
@@ -32,12 +32,9 @@ std::optional<std::string> better_openblas_core(const std::string& detected_core
 // when LibTorch does not multiply through OpenBLAS (MKL, a GPU build).
 std::optional<std::string> openblas_core();
 
-// If OpenBLAS fell back to slower kernels than this CPU can run and the user
-// has not set OPENBLAS_CORETYPE, re-executes the running program
-// (/proc/self/exe, same arguments) with OPENBLAS_CORETYPE set to the better
-// kernels; returns only when it did not (nothing to do, or exec failed).
-// Call first thing in main(): the process restarts from scratch, ~0.8 s
-// (loading LibTorch twice) on the affected machines, nothing elsewhere.
-void use_native_blas_kernels(char** argv);
+// The OPENBLAS_CORETYPE this process should restart with: the better kernels
+// when OpenBLAS fell back to slower ones than this CPU runs and the user has
+// not set the variable; nullopt otherwise.
+std::optional<std::string> openblas_core_setting();
 
 }  // namespace fskin
