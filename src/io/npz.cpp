@@ -2,6 +2,7 @@
 
 #include <fmt/ranges.h>
 #include <zip.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <cctype>
@@ -288,6 +289,11 @@ NpzReader::NpzReader(const std::string& path) : path_(path), impl_(std::make_uni
   for (zip_int64_t i = 0; i < count; ++i) {
     const char* name = zip_get_name(impl_->archive, static_cast<zip_uint64_t>(i), 0);
     FSKIN_CHECK(name != nullptr, "{}: unreadable member name #{}", path, i);
+    // Two members of one name: which one is "the" array would be the reader's
+    // choice (libzip finds the first), so the archive is refused.
+    FSKIN_CHECK(std::find(impl_->member_names.begin(), impl_->member_names.end(), name) ==
+                    impl_->member_names.end(),
+                "{}: member '{}' appears more than once", path, name);
     impl_->member_names.emplace_back(name);
   }
 }
@@ -346,6 +352,14 @@ std::string NpzReader::raw(const std::string& key) const {
   zip_fclose(file);
   FSKIN_CHECK(problem.empty(), "{}: array '{}': corrupt or truncated member: {}", path_, key,
               problem);
+  // libzip checks the CRC only when a read runs past the member's end, which
+  // reading exactly its size never does: checked here.
+  if (stat.valid & ZIP_STAT_CRC) {
+    const auto crc = static_cast<uint32_t>(
+        ::crc32(0L, reinterpret_cast<const Bytef*>(bytes.data()), static_cast<uInt>(bytes.size())));
+    FSKIN_CHECK(crc == stat.crc, "{}: array '{}': corrupt member (CRC-32 {:08x}, the archive says {:08x})", path_,
+                key, crc, stat.crc);
+  }
   return bytes;
 }
 

@@ -13,6 +13,7 @@ Run from anywhere: python3 tests/data/make_npz_fixtures.py
 import os
 import pickle
 import struct
+import warnings
 import zipfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -90,6 +91,13 @@ def main():
     for name, data in singles.items():
         with open(os.path.join(HERE, name), "wb") as out:
             out.write(data)
+    # Two members of one name (zipfile warns; readers disagree on which wins).
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with zipfile.ZipFile(os.path.join(HERE, "duplicate_member.npz"), "w") as archive:
+            for value in (1.0, 2.0):
+                info = zipfile.ZipInfo("a.npy", date_time=(1980, 1, 1, 0, 0, 0))
+                archive.writestr(info, npy_bytes("<f4", (1,), struct.pack("<f", value)))
     try:
         import numpy as np
     except ImportError:

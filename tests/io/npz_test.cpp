@@ -271,5 +271,26 @@ TEST(NpzReader, RejectsTruncatedArchiveAndCorruptMember) {
   expect_error([&] { reader.tensor("a"); }, {"damaged.npz", "'a'", "corrupt"});
 }
 
+TEST(NpzReader, WrongCrcOfAStoredMemberIsCorruption) {
+  const auto dir = temp_dir("npz_crc");
+  NpzWriter writer;
+  writer.add("a", torch::arange(1000, torch::kFloat32));
+  writer.save((dir / "stored.npz").string(), /*compress=*/false);
+  std::string bytes = read_file((dir / "stored.npz").string());
+  EXPECT_TRUE(torch::equal(NpzReader((dir / "stored.npz").string()).tensor("a"), torch::arange(1000, torch::kFloat32)));
+  // A flipped bit inside the stored array data: the zip structure stays valid.
+  const auto magic = bytes.find("\x93NUMPY");
+  ASSERT_NE(magic, std::string::npos);
+  bytes[magic + 1000] = static_cast<char>(bytes[magic + 1000] ^ 0x10);
+  write_file_atomically((dir / "flipped.npz").string(), bytes);
+  expect_error([&] { NpzReader((dir / "flipped.npz").string()).tensor("a"); },
+               {"flipped.npz", "'a'", "CRC-32"});
+}
+
+TEST(NpzReader, RejectsTwoMembersOfOneName) {
+  expect_error([] { NpzReader reader(fixture("duplicate_member.npz")); },
+               {"duplicate_member.npz", "member 'a.npy' appears more than once"});
+}
+
 }  // namespace
 }  // namespace fskin::io
