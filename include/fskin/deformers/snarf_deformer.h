@@ -1,7 +1,9 @@
 #pragma once
 // SNARF (Alg. 1 variant 1): the skinning field (usually an MLP) is evaluated at
-// every Broyden iteration; exact initial Jacobians (eq. 7) and exact implicit
-// gradients (eq. 14) by default. The accuracy reference; slow.
+// every Broyden iteration, batched over all (point, start) lanes, between the
+// steps of the solver the fused Fast-SNARF kernels run (ops/broyden_lanes.h);
+// exact initial Jacobians (eq. 7) and exact implicit gradients (eq. 14) by
+// default. The accuracy reference; slow.
 #include "fskin/deformers/deformer.h"
 
 namespace fskin {
