@@ -3,6 +3,10 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include <memory>
+#include <stdexcept>
+#include <string>
+
 #include "fskin/models/ins_model.h"
 #include "fskin/training/trainer.h"
 #include "test_util.h"
@@ -26,6 +30,13 @@ TrainConfig ins_config(const std::string& space_output = "sine") {
   return c;
 }
 
+// The factory's model for an "ins" config, as the InsModel it must be.
+std::shared_ptr<InsModel> make_ins_model(const TrainConfig& config, const CanonicalSkeleton& skeleton) {
+  auto model = std::dynamic_pointer_cast<InsModel>(make_model(config, skeleton));
+  if (!model) throw std::runtime_error("make_model did not build an InsModel for method " + config.method);
+  return model;
+}
+
 // Every parameter of the PINs and the pose encoder moved off its init, so
 // the identities below are not the trivial ones of a zero-initialised PIN.
 void randomise(InsModel& model) {
@@ -43,8 +54,7 @@ INSTANTIATE_TEST_SUITE_P(SpaceOutput, InsModelBothSpaceOutputs, ::testing::Value
 TEST_P(InsModelBothSpaceOutputs, ZeroRelativePoseGivesTheCanonicalShape) {
   const SyntheticLimb limb({0.0});
   torch::manual_seed(0);
-  auto model_ptr = std::dynamic_pointer_cast<InsModel>(make_model(ins_config(GetParam()), limb.skeleton()));
-  ASSERT_NE(model_ptr, nullptr);
+  const auto model_ptr = make_ins_model(ins_config(GetParam()), limb.skeleton());
   auto& model = *model_ptr;
   randomise(model);
   model.train(false);
@@ -66,8 +76,7 @@ TEST_P(InsModelBothSpaceOutputs, RePosedPointsAreFoundAgainByTheSearch) {
   torch::manual_seed(1);
   auto config = ins_config(GetParam());
   config.start_bones = "all";
-  auto model_ptr = std::dynamic_pointer_cast<InsModel>(make_model(config, limb.skeleton()));
-  ASSERT_NE(model_ptr, nullptr);
+  const auto model_ptr = make_ins_model(config, limb.skeleton());
   auto& model = *model_ptr;
   randomise(model);
   model.train(false);
@@ -90,8 +99,7 @@ TEST(InsModel, PinsTrainAtTheirOwnLearningRate) {
   const SyntheticLimb limb({0.0});
   auto config = ins_config();
   config.pin_learning_rate_factor = 0.1;  // the paper's 1e-4 vs 1e-3
-  auto model_ptr = std::dynamic_pointer_cast<InsModel>(make_model(config, limb.skeleton()));
-  ASSERT_NE(model_ptr, nullptr);
+  const auto model_ptr = make_ins_model(config, limb.skeleton());
   auto& model = *model_ptr;
   const auto groups = model.parameter_groups(1e-3);
   ASSERT_EQ(groups.size(), 3u);  // occupancy, skinning, PINs + pose encoder
