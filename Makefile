@@ -8,7 +8,7 @@ export CCACHE_SLOPPINESS := pch_defines,time_macros,include_file_mtime,include_f
 # Paths relative to the checkout, so every clone shares the cache.
 export CCACHE_BASEDIR ?= $(CURDIR)
 
-.PHONY: setup configure build test demo bench clean
+.PHONY: setup configure build test demo demo-quadruped bench clean
 
 setup:
 	bash scripts/setup.sh
@@ -26,6 +26,10 @@ test: build
 
 demo: build
 	bash scripts/demo.sh $(BUILD_DIR)/fskin demo-output
+
+# The same job on the built-in 33-joint quadruped, with the same defaults.
+demo-quadruped: build
+	FSKIN_DEMO_KIND=quadruped bash scripts/demo.sh $(BUILD_DIR)/fskin demo-quadruped
 
 bench: build
 	$(BUILD_DIR)/fskin_bench

@@ -51,6 +51,11 @@ BodyModel::BodyModel(BodyModelData data, const std::string& source) : data_(std:
     d.posedirs = d.posedirs.to(torch::kFloat32).contiguous();
     expect_finite(d.posedirs, source + ": posedirs");
   }
+  if (d.canonical_pose.defined()) {
+    expect_shape(d.canonical_pose, {J, 3}, source + ": canonical_pose");
+    d.canonical_pose = d.canonical_pose.to(torch::kFloat32).contiguous();
+    expect_finite(d.canonical_pose, source + ": canonical_pose");
+  }
   skeleton().validate(source);
 }
 
@@ -80,6 +85,7 @@ BodyModel BodyModel::load(const std::string& path) {
   if (npz.contains("joint_names")) d.joint_names = npz.strings("joint_names");
   if (npz.contains("shapedirs")) d.shapedirs = npz.tensor("shapedirs");
   if (npz.contains("posedirs")) d.posedirs = npz.tensor("posedirs");
+  if (npz.contains("canonical_pose")) d.canonical_pose = npz.tensor("canonical_pose");
   return BodyModel(std::move(d), path);
 }
 
@@ -95,6 +101,7 @@ void BodyModel::save(const std::string& path) const {
   npz.add_strings("joint_names", data_.joint_names);
   if (data_.shapedirs.defined()) npz.add("shapedirs", data_.shapedirs);
   if (data_.posedirs.defined()) npz.add("posedirs", data_.posedirs);
+  if (data_.canonical_pose.defined()) npz.add("canonical_pose", data_.canonical_pose);
   npz.save(path, /*compress=*/true);
 }
 
@@ -140,6 +147,10 @@ PosedBody BodyModel::pose(const torch::Tensor& axis_angle, const torch::Tensor& 
 }
 
 torch::Tensor da_pose(const Skeleton& skeleton, double angle_radians) {
+  FSKIN_CHECK(skeleton.find("left_hip") >= 0 && skeleton.find("right_hip") >= 0,
+              "the Da-pose is SMPL's canonical pose and rotates the joints 'left_hip' and 'right_hip', which this "
+              "skeleton ({} joints, first '{}') lacks; use the rest pose (--canonical-pose rest, or the default)",
+              skeleton.num_joints(), skeleton.joint_names.front());
   auto pose = torch::zeros({skeleton.num_joints(), 3});
   pose[skeleton.index_of("left_hip")][2] = angle_radians;
   pose[skeleton.index_of("right_hip")][2] = -angle_radians;

@@ -1,23 +1,21 @@
 #include "fskin/body/character.h"
 
-#include <ATen/Parallel.h>
 #include <torch/torch.h>
 
-#include <Eigen/Cholesky>
-#include <Eigen/Core>
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <random>
 
+#include "body/procedural/sdf_body.h"
 #include "fskin/core/error.h"
-#include "fskin/geometry/iso_surface.h"
 #include "fskin/geometry/mesh_topology.h"
 
 namespace fskin {
 namespace {
 
-using Vec3 = Eigen::Vector3d;
+using procedural::Part;
+using procedural::SeededUniform;
+using procedural::Vec3;
 
 enum Joint : int {
   kPelvis,
@@ -50,58 +48,6 @@ enum Joint : int {
 // In SMPL's order every right joint directly follows its left twin.
 int sided(int left_joint, int side) { return side > 0 ? left_joint : left_joint + 1; }
 
-// Uniform numbers from a fixed algorithm: std::uniform_real_distribution is not
-// specified exactly and differs between standard libraries.
-class SeededUniform {
- public:
-  explicit SeededUniform(uint64_t seed) : engine_(seed) {}
-  double symmetric() {  // in [-1, 1)
-    return 2.0 * static_cast<double>(engine_() >> 11) * 0x1.0p-53 - 1.0;
-  }
-
- private:
-  std::mt19937_64 engine_;
-};
-
-// Polynomial smooth minimum (blend radius k): a union with a fillet of size ~k.
-double smooth_min(double a, double b, double k) {
-  const double h = std::max(k - std::abs(a - b), 0.0) / k;
-  return std::min(a, b) - 0.25 * h * h * k;
-}
-
-// Signed distance (approximate away from the surface) to a capsule whose radius
-// changes linearly from ra at a to rb at b.
-double capsule_distance(const Vec3& p, const Vec3& a, const Vec3& b, double ra, double rb) {
-  const Vec3 ab = b - a;
-  const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-  return (p - (a + t * ab)).norm() - (ra + t * (rb - ra));
-}
-
-// Inigo Quilez's ellipsoid bound: exact on the surface, smooth, monotone.
-double ellipsoid_distance(const Vec3& p, const Vec3& centre, const Vec3& radii) {
-  const Vec3 q = p - centre;
-  const double k0 = q.cwiseQuotient(radii).norm();
-  const double k1 = q.cwiseQuotient(radii.cwiseProduct(radii)).norm();
-  return k1 > 0 ? k0 * (k0 - 1.0) / k1 : -radii.minCoeff();
-}
-
-struct Part {
-  bool ellipsoid = false;
-  Vec3 a, b;  // capsule ends, or the ellipsoid's centre (a) and radii (b)
-  double ra = 0, rb = 0;
-  double blend = 0;  // smooth-min radius joining it to the parts before it
-
-  double distance(const Vec3& p) const {
-    return ellipsoid ? ellipsoid_distance(p, a, b) : capsule_distance(p, a, b, ra, rb);
-  }
-  void extend(Vec3& lo, Vec3& hi) const {
-    const Vec3 r = ellipsoid ? b : Vec3::Constant(std::max(ra, rb));
-    const Vec3 c0 = ellipsoid ? a : a.cwiseMin(b), c1 = ellipsoid ? a : a.cwiseMax(b);
-    lo = lo.cwiseMin(c0 - r);
-    hi = hi.cwiseMax(c1 + r);
-  }
-};
-
 // A solid elliptic truncated cone from the waist (top) to the hem, flaring out.
 struct Skirt {
   double top_y, hem_y, top_radius, hem_radius, depth_ratio, rounding;
@@ -133,15 +79,9 @@ struct Design {
   Skirt skirt{};
   double skirt_blend = 0;
 
-  double body_distance(const Vec3& p) const {
-    double d = parts.front().distance(p);
-    for (size_t i = 1; i < parts.size(); ++i)
-      d = smooth_min(d, parts[i].distance(p), parts[i].blend);
-    return d;
-  }
   double distance(const Vec3& p) const {
-    const double body = body_distance(p);
-    return clothed ? smooth_min(body, skirt.distance(p), skirt_blend) : body;
+    const double body = procedural::union_distance(parts, p);
+    return clothed ? procedural::smooth_min(body, skirt.distance(p), skirt_blend) : body;
   }
 };
 
@@ -248,13 +188,7 @@ Design design_body(const CharacterOptions& o) {
     b.r0 *= s;
     b.r1 *= s;
   }
-  for (auto& part : P) {
-    part.a *= s;
-    part.b *= s;
-    part.ra *= s;
-    part.rb *= s;
-    part.blend *= s;
-  }
+  for (auto& part : P) part.scale(s);
   for (double* v : {&d.skirt.top_y, &d.skirt.hem_y, &d.skirt.top_radius, &d.skirt.hem_radius,
                     &d.skirt.rounding, &d.skirt_blend})
     *v *= s;
@@ -273,160 +207,11 @@ Mesh mesh_body(const Design& design, const CharacterOptions& options) {
   // Smooth unions only grow the shape by a fraction of the blend radius.
   lo -= Vec3::Constant(3 * h + 0.03 * options.height);
   hi += Vec3::Constant(3 * h + 0.03 * options.height);
-  const GridBox box{{lo.x(), lo.y(), lo.z()}, {h, h, h}};
-  const int64_t W = static_cast<int64_t>(std::ceil((hi.x() - lo.x()) / h)) + 1,
-                H = static_cast<int64_t>(std::ceil((hi.y() - lo.y()) / h)) + 1,
-                D = static_cast<int64_t>(std::ceil((hi.z() - lo.z()) / h)) + 1;
-  auto grid = torch::empty({D, H, W}, torch::kFloat32);
-  float* values = grid.data_ptr<float>();
-  at::parallel_for(0, D, 1, [&](int64_t begin, int64_t end) {
-    for (int64_t k = begin; k < end; ++k)
-      for (int64_t j = 0; j < H; ++j)
-        for (int64_t i = 0; i < W; ++i) {
-          const auto p = box.point(k, j, i);
-          values[(k * H + j) * W + i] = static_cast<float>(design.distance(Vec3(p[0], p[1], p[2])));
-        }
-  });
-  // Signed distance: inside is below 0.
-  auto mesh = keep_largest_component(iso_surface(grid, box, IsoSurfaceOptions{0.0, false}));
-  const auto topology = analyze_topology(mesh);
-  FSKIN_CHECK(topology.is_closed_manifold() && topology.euler_characteristic() == 2,
-              "built-in character: the mesh at resolution {} is not a closed genus-0 manifold "
-              "(boundary edges {}, non-manifold edges {}, Euler characteristic {}); try another "
-              "--resolution",
-              options.resolution, topology.boundary_edges, topology.non_manifold_edges,
-              topology.euler_characteristic());
-  return mesh;
+  return procedural::mesh_distance_field([&](const Vec3& p) { return design.distance(p); }, lo, hi, h,
+                                         fmt::format("built-in character at resolution {}", options.resolution));
 }
 
-std::vector<Vec3> to_points(const torch::Tensor& tensor) {
-  const auto t = tensor.to(torch::kFloat64).contiguous();
-  const double* p = t.data_ptr<double>();
-  std::vector<Vec3> out(t.size(0));
-  for (size_t i = 0; i < out.size(); ++i) out[i] = {p[3 * i], p[3 * i + 1], p[3 * i + 2]};
-  return out;
-}
-
-// Convex weights over the vertices around `joint` whose weighted mean is the
-// joint itself: the maximum-entropy weights closest (in KL divergence) to a
-// smooth fall-off `prior`, w_i ~ prior_i exp(lambda . (v_i - joint)), with
-// lambda found by Newton's method on the convex dual log sum_i prior_i
-// exp(lambda . u_i). Returns false when the joint lies outside the convex hull
-// of the candidates (the dual is then unbounded).
-bool max_entropy_weights(const std::vector<Vec3>& offsets, const std::vector<double>& prior,
-                         std::vector<double>& weights) {
-  const size_t n = offsets.size();
-  Vec3 lambda = Vec3::Zero();
-  const auto evaluate = [&](const Vec3& l, std::vector<double>& w) {
-    double max_exponent = -1e300;
-    for (size_t i = 0; i < n; ++i) max_exponent = std::max(max_exponent, l.dot(offsets[i]));
-    double total = 0;
-    for (size_t i = 0; i < n; ++i)
-      total += w[i] = prior[i] * std::exp(l.dot(offsets[i]) - max_exponent);
-    for (double& x : w) x /= total;
-    return std::log(total) + max_exponent;  // the dual objective
-  };
-  weights.assign(n, 0.0);
-  std::vector<double> trial(n);
-  double objective = evaluate(lambda, weights);
-  for (int iteration = 0; iteration < 100; ++iteration) {
-    Vec3 mean = Vec3::Zero();
-    for (size_t i = 0; i < n; ++i) mean += weights[i] * offsets[i];
-    if (mean.norm() < 1e-7) return true;
-    Eigen::Matrix3d covariance = -mean * mean.transpose();
-    for (size_t i = 0; i < n; ++i) covariance += weights[i] * offsets[i] * offsets[i].transpose();
-    const Vec3 step = -(covariance + 1e-9 * Eigen::Matrix3d::Identity()).ldlt().solve(mean);
-    double t = 1.0;  // backtracking line search on the dual
-    for (; t > 1e-6; t *= 0.5) {
-      const double candidate = evaluate(lambda + t * step, trial);
-      if (candidate <= objective + 1e-4 * t * mean.dot(step)) {
-        objective = candidate;
-        break;
-      }
-    }
-    if (t <= 1e-6) return false;
-    lambda += t * step;
-    weights.swap(trial);
-  }
-  return false;
-}
-
-// Rows of convex weights over a ring of vertices around each joint that
-// regress the designed joint exactly (the ring widens until it surrounds the
-// joint), so the rest joints of the clothed and the plain variant agree.
-// Hand-written: this is a 3-variable convex problem, no optimiser library needed.
-std::vector<std::vector<std::pair<int64_t, double>>> joint_regressor(
-    const std::array<Vec3, kNumJoints>& joints, const std::vector<Vec3>& vertices) {
-  std::vector<std::vector<std::pair<int64_t, double>>> rows(kNumJoints);
-  const int64_t V = static_cast<int64_t>(vertices.size());
-  for (int j = 0; j < kNumJoints; ++j) {
-    std::vector<double> distance(V);
-    double nearest = 1e9;
-    for (int64_t v = 0; v < V; ++v) {
-      distance[v] = (vertices[v] - joints[j]).norm();
-      nearest = std::min(nearest, distance[v]);
-    }
-    // At coarse resolutions a thin limb's mesh may not surround its joint; the
-    // smallest ring's prior weights are used then (the joint moves slightly,
-    // and the rest joints are the regressed ones anyway).
-    std::vector<std::pair<int64_t, double>> fallback;
-    for (double reach : {1.5, 2.0, 3.0, 4.0, 6.0}) {
-      const double radius = reach * nearest + 1e-6;  // > 0 even on a vertex
-      std::vector<int64_t> ids;
-      std::vector<Vec3> offsets;
-      std::vector<double> prior, weights;
-      for (int64_t v = 0; v < V; ++v)
-        if (distance[v] < radius) {
-          const double u = distance[v] / radius;
-          ids.push_back(v);
-          offsets.push_back((vertices[v] - joints[j]) / radius);
-          prior.push_back((1 - u * u) * (1 - u * u));
-        }
-      if (fallback.empty())
-        for (size_t i = 0; i < ids.size(); ++i) fallback.emplace_back(ids[i], prior[i]);
-      if (!max_entropy_weights(offsets, prior, weights)) continue;
-      for (size_t i = 0; i < ids.size(); ++i)
-        if (weights[i] > 1e-6) rows[j].emplace_back(ids[i], weights[i]);
-      break;
-    }
-    if (rows[j].empty()) rows[j] = fallback;
-    double total = 0;
-    for (const auto& entry : rows[j]) total += entry.second;
-    for (auto& entry : rows[j]) entry.second /= total;
-  }
-  return rows;
-}
-
-// Vertex neighbours (compressed rows) from the faces.
-struct Adjacency {
-  std::vector<int64_t> offsets, neighbours;
-};
-Adjacency mesh_adjacency(const Mesh& mesh) {
-  const auto faces = mesh.faces.contiguous();
-  const int64_t* f = faces.data_ptr<int64_t>();
-  std::vector<std::pair<int64_t, int64_t>> edges;
-  for (int64_t i = 0; i < mesh.num_faces(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      const int64_t a = f[3 * i + c], b = f[3 * i + (c + 1) % 3];
-      edges.emplace_back(a, b);
-      edges.emplace_back(b, a);
-    }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  Adjacency adjacency;
-  adjacency.offsets.assign(mesh.num_vertices() + 1, 0);
-  for (const auto& e : edges) {
-    ++adjacency.offsets[e.first + 1];
-    adjacency.neighbours.push_back(e.second);
-  }
-  for (int64_t v = 0; v < mesh.num_vertices(); ++v)
-    adjacency.offsets[v + 1] += adjacency.offsets[v];
-  return adjacency;
-}
-
-// Skinning weights [V][J]: softmax of -(distance to each bone's capsule) / sigma,
-// then a few averaging passes over the mesh graph (which keep rows >= 0 and
-// summing to 1) so that weights vary smoothly across joints.
+// Skinning weights [V][J] from the bones' capsules along the regressed joints.
 std::vector<double> skinning_weights(const Design& design, const std::array<Vec3, kNumJoints>& rest,
                                      const std::vector<Vec3>& vertices, double scale) {
   const auto& parents = smpl_parents();
@@ -442,45 +227,9 @@ std::vector<double> skinning_weights(const Design& design, const std::array<Vec3
       if ((design.joints[c] - bone.end).norm() < 1e-9) child = c;
     ends[j] = child >= 0 ? rest[child] : rest[j] + (bone.end - design.joints[j]);
   }
-  const double sigma = 0.02 * scale;
-  const int64_t V = static_cast<int64_t>(vertices.size());
-  std::vector<double> weights(V * kNumJoints);
-  for (int64_t v = 0; v < V; ++v) {
-    double* w = &weights[v * kNumJoints];
-    double nearest = 1e9;
-    for (int j = 0; j < kNumJoints; ++j) {
-      w[j] =
-          capsule_distance(vertices[v], rest[j], ends[j], design.bones[j].r0, design.bones[j].r1);
-      nearest = std::min(nearest, w[j]);
-    }
-    double total = 0;
-    for (int j = 0; j < kNumJoints; ++j) {
-      w[j] = std::exp(-(w[j] - nearest) / sigma);
-      if (w[j] < 1e-4) w[j] = 0;  // keep rows sparse: only nearby bones
-      total += w[j];
-    }
-    for (int j = 0; j < kNumJoints; ++j) w[j] /= total;
-  }
-  return weights;
-}
-
-void smooth_over_mesh(std::vector<double>& weights, const Adjacency& adjacency, int iterations) {
-  const int64_t V = static_cast<int64_t>(adjacency.offsets.size()) - 1;
-  std::vector<double> next(weights.size());
-  for (int it = 0; it < iterations; ++it) {
-    for (int64_t v = 0; v < V; ++v) {
-      const int64_t begin = adjacency.offsets[v], end = adjacency.offsets[v + 1];
-      for (int j = 0; j < kNumJoints; ++j) {
-        double sum = 0;
-        for (int64_t n = begin; n < end; ++n)
-          sum += weights[adjacency.neighbours[n] * kNumJoints + j];
-        // Every vertex of a closed mesh has neighbours.
-        next[v * kNumJoints + j] =
-            0.5 * weights[v * kNumJoints + j] + 0.5 * sum / double(end - begin);
-      }
-    }
-    weights.swap(next);
-  }
+  std::vector<procedural::BoneCapsule> capsules;
+  for (int j = 0; j < kNumJoints; ++j) capsules.push_back({rest[j], ends[j], design.bones[j].r0, design.bones[j].r1});
+  return procedural::capsule_skinning_weights(capsules, vertices, 0.02 * scale);
 }
 
 // How much a vertex belongs to the skirt: 1 on its surface, fading out over
@@ -534,27 +283,12 @@ void CharacterOptions::validate() const {
               "character: --variation must be in [0, 0.1], got {}", variation);
 }
 
-const std::vector<std::string>& smpl_joint_names() {
-  static const std::vector<std::string> names = {
-      "pelvis",     "left_hip",    "right_hip",    "spine1",      "left_knee",     "right_knee",
-      "spine2",     "left_ankle",  "right_ankle",  "spine3",      "left_foot",     "right_foot",
-      "neck",       "left_collar", "right_collar", "head",        "left_shoulder", "right_shoulder",
-      "left_elbow", "right_elbow", "left_wrist",   "right_wrist", "left_hand",     "right_hand"};
-  return names;
-}
-
-const std::vector<int64_t>& smpl_parents() {
-  static const std::vector<int64_t> parents = {-1, 0, 0, 0,  1,  2,  3,  4,  5,  6,  7,  8,
-                                               9,  9, 9, 12, 13, 14, 16, 17, 18, 19, 20, 21};
-  return parents;
-}
-
 BodyModelData make_character(const CharacterOptions& options) {
   options.validate();
   const Design design = design_body(options);
   const double scale = options.height / 1.7;
   const Mesh mesh = mesh_body(design, options);
-  const auto vertices = to_points(mesh.vertices);
+  const auto vertices = procedural::to_points(mesh.vertices);
   const int64_t V = static_cast<int64_t>(vertices.size());
 
   BodyModelData data;
@@ -563,7 +297,7 @@ BodyModelData make_character(const CharacterOptions& options) {
   data.parents = smpl_parents();
   data.joint_names = smpl_joint_names();
 
-  const auto rows = joint_regressor(design.joints, vertices);
+  const auto rows = procedural::joint_regressor({design.joints.begin(), design.joints.end()}, vertices);
   data.J_regressor = torch::zeros({kNumJoints, V}, torch::kFloat32);
   auto regressor = data.J_regressor.accessor<float, 2>();
   std::array<Vec3, kNumJoints> rest;
@@ -575,17 +309,17 @@ BodyModelData make_character(const CharacterOptions& options) {
     }
   }
 
-  const auto adjacency = mesh_adjacency(mesh);
+  const auto adjacency = procedural::mesh_adjacency(mesh);
   auto weights = skinning_weights(design, rest, vertices, scale);
   if (design.clothed) blend_skirt_weights(design, vertices, weights, scale);
-  smooth_over_mesh(weights, adjacency, std::max(1, options.resolution / 20));
+  procedural::smooth_over_mesh(weights, kNumJoints, adjacency, std::max(1, options.resolution / 20));
   data.weights =
       torch::from_blob(weights.data(), {V, kNumJoints}, torch::kFloat64).to(torch::kFloat32);
 
   // Pose correctives: a bulge along the normal near joint j that grows with
   // 1 - cos(theta_j) = -trace(R_j - I) / 2, i.e. -amplitude / 2 on the three
   // diagonal features of joint j (SMPL feature layout, body_model.h).
-  const auto normals = to_points(vertex_normals(mesh));
+  const auto normals = procedural::to_points(vertex_normals(mesh));
   // Amplitude and Gaussian radius (metres at 1.7 m): the radius reaches the
   // surface around the joint (deep inside the torso, close under the skin at
   // the elbows).

@@ -1,11 +1,15 @@
-// fskin character: generate the built-in procedural character (SMPL-format .npz).
+// fskin character: generate a built-in procedural character (SMPL-format .npz):
+// the humanoid (character.h) or the quadruped (quadruped.h).
 #include "fskin/body/character.h"
+#include "fskin/body/quadruped.h"
+#include "fskin/data/pose_generators.h"
 
 #include <torch/torch.h>
 
 #include <cstdio>
 
 #include "cli/commands.h"
+#include "fskin/core/error.h"
 #include "fskin/data/pose_set.h"
 #include "fskin/geometry/mesh_topology.h"
 #include "fskin/io/mesh_io.h"
@@ -51,18 +55,27 @@ PoseSet demo_poses(const std::vector<std::string>& names) {
 void register_character(CLI::App& app) {
   struct Options {
     CharacterOptions character;
-    std::string out, mesh_out, poses_out;
+    QuadrupedOptions quadruped;
+    std::string kind = "humanoid", out, mesh_out, poses_out;
+    int resolution = 0;  // 0: the kind's default
   };
   auto opt = std::make_shared<Options>();
   auto& c = opt->character;
   auto* cmd = app.add_subcommand(
-      "character", "Generate the built-in procedural character as an SMPL-format model (.npz)");
+      "character", "Generate a built-in procedural character as an SMPL-format model (.npz)");
   cmd->add_option("--out", opt->out, "output model .npz")->required();
+  cmd->add_option("--kind", opt->kind,
+                  "humanoid (SMPL's 24 joints, T-pose) or quadruped (33 joints: spine, neck, ears, four legs, "
+                  "tail; standing)")
+      ->check(CLI::IsMember({"humanoid", "quadruped"}))
+      ->capture_default_str();
   cmd->add_flag("--clothed", c.clothed, "add a loose skirt (part of the closed surface)");
   cmd->add_option("--seed", c.seed, "seed of the proportions' variation")->capture_default_str();
-  cmd->add_option("--resolution", c.resolution, "grid cells along the height (mesh density)")
+  cmd->add_option("--resolution", opt->resolution,
+                  "grid cells along the height (humanoid, default 110) or the length (quadruped, default 150)");
+  cmd->add_option("--height", c.height, "humanoid: height in metres")->capture_default_str();
+  cmd->add_option("--length", opt->quadruped.length, "quadruped: nose to tail tip in metres")
       ->capture_default_str();
-  cmd->add_option("--height", c.height, "height in metres")->capture_default_str();
   cmd->add_option("--girth", c.girth, "thickness multiplier")->capture_default_str();
   cmd->add_option("--shoulder-width", c.shoulder_width, "multiplier")->capture_default_str();
   cmd->add_option("--hip-width", c.hip_width, "multiplier")->capture_default_str();
@@ -71,18 +84,29 @@ void register_character(CLI::App& app) {
   cmd->add_option("--head-size", c.head_size, "multiplier")->capture_default_str();
   cmd->add_option("--variation", c.variation, "relative size of the seed's variation")
       ->capture_default_str();
+  const std::vector<std::string> humanoid_only = {"--clothed", "--height", "--girth", "--shoulder-width", "--hip-width",
+                              "--arm-length", "--leg-length", "--head-size"};
   cmd->add_option("--mesh-out", opt->mesh_out, "also write the template mesh (.ply or .obj)");
   cmd->add_option("--write-poses", opt->poses_out,
                   "also write a few demo poses for this character (.npz pose file)");
-  cmd->callback([opt] {
-    const auto model = make_character_model(opt->character);
+  cmd->callback([opt, cmd, humanoid_only] {
+    const bool quadruped = opt->kind == "quadruped";
+    if (quadruped)
+      for (const auto& flag : humanoid_only)
+        FSKIN_CHECK(cmd->count(flag) == 0, "fskin character: {} applies to --kind humanoid only", flag);
+    if (!quadruped && cmd->count("--length") > 0) fail("fskin character: --length applies to --kind quadruped only");
+    opt->quadruped.seed = opt->character.seed;
+    opt->quadruped.variation = opt->character.variation;
+    if (opt->resolution > 0) (quadruped ? opt->quadruped.resolution : opt->character.resolution) = opt->resolution;
+    const auto model = quadruped ? make_quadruped_model(opt->quadruped) : make_character_model(opt->character);
     model.save(opt->out);
     const auto mesh = model.template_mesh();
     const auto topology = analyze_topology(mesh);
     const auto lo = std::get<0>(mesh.vertices.min(0)), hi = std::get<0>(mesh.vertices.max(0));
-    std::printf("wrote %s: built-in character%s, seed %llu, resolution %d\n", opt->out.c_str(),
-                opt->character.clothed ? " (clothed)" : "",
-                static_cast<unsigned long long>(opt->character.seed), opt->character.resolution);
+    std::printf("wrote %s: built-in %s%s, seed %llu, resolution %d\n", opt->out.c_str(),
+                quadruped ? "quadruped" : "character", opt->character.clothed ? " (clothed)" : "",
+                static_cast<unsigned long long>(opt->character.seed),
+                quadruped ? opt->quadruped.resolution : opt->character.resolution);
     std::printf(
         "  %lld vertices, %lld faces, %lld joints, %lld shape directions\n",
         static_cast<long long>(model.num_vertices()), static_cast<long long>(mesh.num_faces()),
@@ -99,7 +123,8 @@ void register_character(CLI::App& app) {
       std::printf("wrote %s\n", opt->mesh_out.c_str());
     }
     if (!opt->poses_out.empty()) {
-      demo_poses(model.data().joint_names).save(opt->poses_out);
+      const auto& names = model.data().joint_names;
+      (quadruped ? make_ood_poses(names, {5, opt->quadruped.seed}) : demo_poses(names)).save(opt->poses_out);
       std::printf("wrote %s (5 demo poses)\n", opt->poses_out.c_str());
     }
   });

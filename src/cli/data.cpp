@@ -13,7 +13,7 @@ namespace fskin::cli {
 
 void register_data(CLI::App& app) {
   struct Options {
-    std::string model, poses, ood_poses, out, canonical = "da";
+    std::string model, poses, ood_poses, out, canonical = "default";
     int64_t points = 200000;
     uint64_t seed = 0;
     double val_fraction = 0.1, test_fraction = 0.1;
@@ -34,8 +34,10 @@ void register_data(CLI::App& app) {
   build->add_option("--points", opt->points, "points per frame (half uniform, half near-surface)")
       ->check(CLI::Range(int64_t{2}, int64_t{100000000}));
   build->add_option("--seed", opt->seed, "random seed of the sampling");
-  build->add_option("--canonical-pose", opt->canonical, "canonical pose: da or rest")
-      ->check(CLI::IsMember({"da", "rest"}));
+  build->add_option("--canonical-pose", opt->canonical,
+                    "canonical pose: default (the model's declared one, else SMPL's Da-pose for SMPL "
+                    "skeletons, else the rest pose), da or rest")
+      ->check(CLI::IsMember({"default", "da", "rest"}));
   build->add_option("--val-fraction", opt->val_fraction, "fraction of the poses for validation");
   build->add_option("--test-fraction", opt->test_fraction,
                     "fraction of the poses for the within-distribution test");

@@ -1,4 +1,6 @@
-// fskin poses: generate seeded pose sets for an SMPL-format model's skeleton.
+// fskin poses: generate seeded pose sets for a model's skeleton: the built-in
+// motions of SMPL skeletons and of the built-in quadruped, or, for any other
+// skeleton, motions inside the joint ranges of a pose file (--ranges-from).
 #include <torch/torch.h>
 
 #include <cstdio>
@@ -8,10 +10,19 @@
 #include "fskin/data/pose_generators.h"
 
 namespace fskin::cli {
+namespace {
+
+JointRanges ranges_from(const std::string& path, const std::string& model_path, const std::vector<std::string>& names) {
+  const auto poses = PoseSet::load(path);
+  poses.validate(path + " (for " + model_path + ")", static_cast<int64_t>(names.size()), names);
+  return ranges_of_poses(poses, path);
+}
+
+}  // namespace
 
 void register_poses(CLI::App& app) {
   struct Options {
-    std::string model, out;
+    std::string model, out, ranges_from;
     int64_t sequences = 10, frames = 30, count = 50;
     uint64_t seed = 0;
   };
@@ -22,6 +33,9 @@ void register_poses(CLI::App& app) {
   auto* train = cmd->add_subcommand(
       "train", "Natural motions (walks, arm swings, bends) within moderate joint ranges");
   train->add_option("--model", opt->model, "SMPL-format model .npz (for the joint names)")->required();
+  train->add_option("--ranges-from", opt->ranges_from,
+                    "pose file .npz (e.g. the character's imported clips) whose per-joint ranges bound the "
+                    "motions; needed for skeletons without built-in motions");
   train->add_option("--out", opt->out, "output pose file .npz")->required();
   train->add_option("--sequences", opt->sequences, "number of motion sequences")
       ->check(CLI::PositiveNumber);
@@ -29,8 +43,11 @@ void register_poses(CLI::App& app) {
   train->add_option("--seed", opt->seed, "random seed");
   train->callback([opt] {
     const auto model = BodyModel::load(opt->model);
-    const auto set = make_training_poses(model.data().joint_names,
-                                         {opt->sequences, opt->frames, opt->seed});
+    const auto& names = model.data().joint_names;
+    const TrainingPoseOptions options{opt->sequences, opt->frames, opt->seed};
+    const auto set = opt->ranges_from.empty()
+                         ? make_training_poses(names, options)
+                         : make_training_poses(names, ranges_from(opt->ranges_from, opt->model, names), options);
     set.save(opt->out);
     std::printf("wrote %s: %lld training poses (%lld sequences x %lld frames), %lld joints\n",
                 opt->out.c_str(), static_cast<long long>(set.size()),
@@ -41,17 +58,21 @@ void register_poses(CLI::App& app) {
   auto* ood = cmd->add_subcommand(
       "ood", "Extreme poses outside the training ranges (leg raises, crossed arms, deep bends)");
   ood->add_option("--model", opt->model, "SMPL-format model .npz (for the joint names)")->required();
+  ood->add_option("--ranges-from", opt->ranges_from,
+                  "pose file .npz whose per-joint ranges the poses go beyond (as for poses train)");
   ood->add_option("--out", opt->out, "output pose file .npz")->required();
   ood->add_option("--count", opt->count, "number of poses")->check(CLI::PositiveNumber);
   ood->add_option("--seed", opt->seed, "random seed");
   ood->callback([opt] {
     const auto model = BodyModel::load(opt->model);
     const auto& names = model.data().joint_names;
-    const auto set = make_ood_poses(names, {opt->count, opt->seed});
+    const auto ranges =
+        opt->ranges_from.empty() ? training_ranges(names) : ranges_from(opt->ranges_from, opt->model, names);
+    const OodPoseOptions options{opt->count, opt->seed};
+    const auto set = opt->ranges_from.empty() ? make_ood_poses(names, options) : make_ood_poses(names, ranges, options);
     set.save(opt->out);
     double smallest_excess = INFINITY;
-    for (int64_t i = 0; i < set.size(); ++i)
-      smallest_excess = std::min(smallest_excess, training_range_excess(names, set.poses[i]));
+    for (int64_t i = 0; i < set.size(); ++i) smallest_excess = std::min(smallest_excess, range_excess(ranges, set.poses[i]));
     std::printf("wrote %s: %lld out-of-distribution poses, each >= %.2f rad beyond the training "
                 "ranges\n",
                 opt->out.c_str(), static_cast<long long>(set.size()), smallest_excess);

@@ -9,10 +9,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "fskin/body/smpl_skeleton.h"
 #include "fskin/core/error.h"
 #include "fskin/data/dataset_frame.h"
 #include "fskin/data/inside_test.h"
 #include "fskin/data/random.h"
+#include "fskin/geometry/character_size.h"
 #include "fskin/skeleton/forward_kinematics.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/util/progress.h"
@@ -52,8 +54,8 @@ void DatasetBuildOptions::validate() const {
   FSKIN_CHECK(val_fraction >= 0 && test_fraction >= 0 && val_fraction + test_fraction < 1,
               "dataset build: val fraction {} and test fraction {} must be >= 0 and sum below 1",
               val_fraction, test_fraction);
-  FSKIN_CHECK(canonical_pose == "da" || canonical_pose == "rest",
-              "dataset build: canonical pose must be 'da' or 'rest', got '{}'", canonical_pose);
+  FSKIN_CHECK(canonical_pose == "default" || canonical_pose == "da" || canonical_pose == "rest",
+              "dataset build: canonical pose must be 'default', 'da' or 'rest', got '{}'", canonical_pose);
 }
 
 std::string DatasetBuildSummary::to_string() const {
@@ -65,9 +67,18 @@ std::string DatasetBuildSummary::to_string() const {
       sampling_s / n, inside_test_s / n, writing_s / n);
 }
 
+std::string resolve_canonical_pose(const BodyModel& model, const std::string& name) {
+  FSKIN_CHECK(name == "default" || name == "da" || name == "rest",
+              "unknown canonical pose '{}' (expected 'default', 'da' or 'rest')", name);
+  if (name != "default") return name;
+  if (model.data().canonical_pose.defined()) return "model";
+  return is_smpl_skeleton(model.data().joint_names) ? "da" : "rest";
+}
+
 torch::Tensor canonical_pose(const BodyModel& model, const std::string& name) {
-  if (name == "da") return da_pose(model.skeleton());
-  FSKIN_CHECK(name == "rest", "unknown canonical pose '{}' (expected 'da' or 'rest')", name);
+  const std::string resolved = resolve_canonical_pose(model, name);
+  if (resolved == "model") return model.data().canonical_pose.clone();
+  if (resolved == "da") return da_pose(model.skeleton());
   return torch::zeros({model.num_joints(), 3});
 }
 
@@ -78,11 +89,11 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
   poses.validate(options.poses_source, model.num_joints(), names);
   if (ood_poses.size() > 0) ood_poses.validate(options.ood_poses_source, model.num_joints(), names);
 
-  // The papers' noise sigma (0.01) is for bodies of about 1.7 m: scale it.
-  const Box rest_box = mesh_bounds(model.template_mesh());
-  const double height = rest_box.max[1] - rest_box.min[1];
+  // The papers' noise sigma (0.01) is for bodies of about 1.7 m: scale it by
+  // the model's size, whichever axis is its longest.
   SamplingOptions sampling = options.sampling;
-  sampling.noise_sigma = options.sampling.noise_sigma * height / 1.7;
+  const double size = character_size(model.data().v_template, "dataset build: model");
+  sampling.noise_sigma = options.sampling.noise_sigma * size / kReferenceCharacterSize;
 
   const auto canonical_aa = canonical_pose(model, options.canonical_pose);
   const auto canonical = model.pose(canonical_aa.unsqueeze(0));
@@ -122,9 +133,9 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
       {"parents", model.data().parents},
       {"num_vertices", model.num_vertices()},
       {"num_faces", model.data().faces.size(0)},
-      {"canonical_pose", options.canonical_pose},
+      {"canonical_pose", resolve_canonical_pose(model, options.canonical_pose)},
       {"canonical_box", box_json(canonical_box)},
-      {"body_height", height},
+      {"body_size", size},
       {"seed", options.seed},
       {"sampling",
        {{"uniform_points", sampling.uniform_points},

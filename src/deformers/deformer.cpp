@@ -1,5 +1,6 @@
 #include "fskin/deformers/deformer.h"
 
+#include <cmath>
 #include <functional>
 
 #include "fskin/core/error.h"
@@ -35,6 +36,16 @@ DeformerOptions DeformerOptions::snarf() {
 }
 
 DeformerOptions DeformerOptions::fast_snarf() { return DeformerOptions{}; }
+
+DeformerOptions DeformerOptions::scaled(double length_unit) const {
+  FSKIN_CHECK(length_unit > 0 && std::isfinite(length_unit), "DeformerOptions::scaled: length unit {} must be > 0",
+              length_unit);
+  DeformerOptions o = *this;
+  o.converge_sq *= length_unit * length_unit;
+  o.diverge_sq *= length_unit * length_unit;
+  o.duplicate_distance *= length_unit;
+  return o;
+}
 
 Deformer::Deformer(DeformerOptions options) : options_(std::move(options)) {
   FSKIN_CHECK(options_.chunk_points >= 1, "Deformer: chunk_points must be >= 1");

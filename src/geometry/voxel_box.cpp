@@ -2,6 +2,8 @@
 
 #include <torch/torch.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "fskin/core/error.h"
@@ -30,6 +32,44 @@ VoxelBox VoxelBox::around(const torch::Tensor& points, GridShape shape, double p
   box.scale[2] *= z_factor;
   box.shape = shape;
   box.validate("VoxelBox::around");
+  return box;
+}
+
+VoxelBox VoxelBox::fit(const torch::Tensor& points, int64_t longest_voxels, double padding,
+                       int64_t min_voxels) {
+  expect_shape(points, {-1, 3}, "VoxelBox::fit: points");
+  FSKIN_CHECK(points.size(0) > 0, "VoxelBox::fit: points is empty");
+  expect_finite(points, "VoxelBox::fit: points");
+  FSKIN_CHECK(longest_voxels >= 2 && min_voxels >= 2 && min_voxels <= longest_voxels,
+              "VoxelBox::fit: longest_voxels ({}) and min_voxels ({}) must be >= 2, min <= longest",
+              longest_voxels, min_voxels);
+  FSKIN_CHECK(padding >= 0 && std::isfinite(padding), "VoxelBox::fit: padding {} must be >= 0", padding);
+  const auto p = points.detach().to(torch::kCPU, torch::kFloat64);
+  const auto lo = std::get<0>(p.min(0)), hi = std::get<0>(p.max(0));
+  std::array<double, 3> half{}, centre{};
+  for (int a = 0; a < 3; ++a) {
+    centre[a] = (lo[a].item<double>() + hi[a].item<double>()) / 2;
+    half[a] = (hi[a].item<double>() - lo[a].item<double>()) / 2;
+  }
+  const double longest = 2 * std::max({half[0], half[1], half[2]});
+  FSKIN_CHECK(longest > 0, "VoxelBox::fit: points span no volume");
+  for (double& h : half) h += padding * longest;
+  // Voxel centres span [-1, 1] (align-corners): n voxels cover 2 half / (n - 1).
+  const double spacing = 2 * std::max({half[0], half[1], half[2]}) / static_cast<double>(longest_voxels - 1);
+  std::array<int64_t, 3> counts{};
+  for (int a = 0; a < 3; ++a) {
+    // Flat axes (a 2D set) still get a box: at least one spacing across.
+    half[a] = std::max(half[a], spacing);
+    const auto n = static_cast<int64_t>(std::ceil(2 * half[a] / spacing - 1e-6)) + 1;
+    counts[a] = std::clamp(n, min_voxels, longest_voxels);
+  }
+  VoxelBox box;
+  for (int a = 0; a < 3; ++a) {
+    box.offset[a] = -centre[a];
+    box.scale[a] = 1.0 / half[a];
+  }
+  box.shape = GridShape{counts[2], counts[1], counts[0]};
+  box.validate("VoxelBox::fit");
   return box;
 }
 

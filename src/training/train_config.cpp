@@ -7,6 +7,7 @@
 
 #include "fskin/core/error.h"
 #include "fskin/deformers/start_bones.h"
+#include "fskin/geometry/character_size.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin {
@@ -20,7 +21,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     validate_every, validation_frames,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
     pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, canonical_sparsity_weight,
-    canonical_sparsity_points, grid, part_hidden_dim, part_hidden_layers, start_bones,
+    canonical_sparsity_points, grid_resolution, grid, part_hidden_dim, part_hidden_layers, start_bones,
     max_iterations, snarf_roots, implicit_gradient, eval_chunk_points)
 
 TrainConfig TrainConfig::full() {
@@ -40,6 +41,7 @@ TrainConfig TrainConfig::full() {
   c.canonical_sparsity_weight = 0;
   c.pose_conditioning = true;
   c.encoding_frequencies = 0;
+  c.grid_resolution = 64;  // the papers' 64 along a person's longest side
   c.grid = {16, 64, 64};
   // INS: the paper's PINs (Table 4).
   c.pin_layers = 18;
@@ -112,7 +114,8 @@ TrainConfig TrainConfig::load_run(const std::string& path) {
   // Keys added after run directories were first written, with the value a run
   // written without the key used.
   static const std::vector<std::pair<std::string, nlohmann::json>> kBeforeTheKeyExisted = {
-      {"pin_space_output", "sine"}, {"pin_space_omega", 30.0}, {"pin_pose_frame", "global"}, {"pin_bone_dropout", 0.0}};
+      {"pin_space_output", "sine"}, {"pin_space_omega", 30.0}, {"pin_pose_frame", "global"}, {"pin_bone_dropout", 0.0},
+      {"grid_resolution", 0}};
   nlohmann::json saved = parse_object(read_file(path), path);
   for (const auto& [key, value] : kBeforeTheKeyExisted) {
     if (!saved.contains(key)) saved[key] = value;
@@ -152,9 +155,12 @@ void TrainConfig::validate() const {
               validation_frames);
   FSKIN_CHECK(grid.size() == 3 && *std::min_element(grid.begin(), grid.end()) >= 2,
               "config: grid must be [depth, height, width], each >= 2");
+  FSKIN_CHECK(grid_resolution == 0 || (grid_resolution >= 4 && grid_resolution <= 1024),
+              "config: grid_resolution {} must be 0 (use grid) or from 4 to 1024", grid_resolution);
   FSKIN_CHECK(max_iterations >= 0 && eval_chunk_points >= 1, "config: max_iterations and eval_chunk_points out of range");
-  FSKIN_CHECK(start_bones == "smpl-training" || start_bones == "all" || start_bones.rfind("automatic:", 0) == 0,
-              "config: start_bones '{}' must be smpl-training, all or automatic:K", start_bones);
+  FSKIN_CHECK(start_bones == "default" || start_bones == "smpl-training" || start_bones == "all" ||
+                  start_bones.rfind("automatic:", 0) == 0,
+              "config: start_bones '{}' must be default, smpl-training, all or automatic:K", start_bones);
   if (start_bones.rfind("automatic:", 0) == 0) automatic_start_count(start_bones);
   FSKIN_CHECK(warmup_steps >= 0 && warmup_factor > 0 && warmup_factor <= 1,
               "config: warmup_steps {} must be >= 0 and warmup_factor {} in (0, 1]", warmup_steps, warmup_factor);
@@ -189,9 +195,22 @@ int64_t TrainConfig::bootstrap_steps(int64_t frames) const {
 }
 
 namespace {
+// Starts kept per point by "default" on skeletons without SMPL's names: as
+// many as the papers' SMPL list has, so the search costs the same.
+constexpr int64_t kDefaultAutomaticStarts = 9;
+
+bool has_smpl_training_bones(const CanonicalSkeleton& skeleton) {
+  for (const auto& name : StartBones::smpl_training_names())
+    if (std::find(skeleton.joint_names.begin(), skeleton.joint_names.end(), name) == skeleton.joint_names.end())
+      return false;
+  return true;
+}
+
 StartBones resolve_start_bones(const std::string& spec, const CanonicalSkeleton& skeleton) {
   if (spec == "all") return StartBones::all();
   if (spec.rfind("automatic:", 0) == 0) return StartBones::automatic(automatic_start_count(spec));
+  if (spec == "default" && !has_smpl_training_bones(skeleton))
+    return StartBones::automatic(kDefaultAutomaticStarts);
   std::vector<int64_t> indices;
   for (const auto& name : StartBones::smpl_training_names()) {
     const auto it = std::find(skeleton.joint_names.begin(), skeleton.joint_names.end(), name);
@@ -225,9 +244,12 @@ ModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& s
   o.skinning.hidden_dim = config.skinning_hidden_dim;
   o.skinning.hidden_layers = config.skinning_hidden_layers;
   o.skinning.input = occ.input;
-  o.box = VoxelBox::around(skeleton.extent.to(torch::kFloat64),
-                           GridShape{config.grid[0], config.grid[1], config.grid[2]});
-  o.deformer = model.method == Method::Snarf ? DeformerOptions::snarf() : DeformerOptions::fast_snarf();
+  const auto extent = skeleton.extent.to(torch::kFloat64);
+  o.box = config.grid_resolution > 0
+              ? VoxelBox::fit(extent, config.grid_resolution)
+              : VoxelBox::around(extent, GridShape{config.grid[0], config.grid[1], config.grid[2]});
+  o.deformer = (model.method == Method::Snarf ? DeformerOptions::snarf() : DeformerOptions::fast_snarf())
+                   .scaled(length_unit(extent, "training: the canonical body"));
   if (model.method == Method::Snarf && config.snarf_roots == "in-box") {
     o.deformer.root_box = o.box;
     o.deformer.remove_duplicates = true;

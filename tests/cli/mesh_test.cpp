@@ -32,7 +32,7 @@ class MeshCommand : public ::testing::Test {
             " --points 1000 --quiet",
         "train --data " + path("set") + " --out " + path("run") +
             " --steps 2 --quiet --set frames_per_batch=1 --set surface_points=100 --set uniform_points=50"
-            " --set occupancy_hidden_dim=16 --set skinning_hidden_dim=16 --set grid=[4,16,16]"
+            " --set occupancy_hidden_dim=16 --set skinning_hidden_dim=16 --set grid_resolution=16"
             " --set skinning_prior_steps=0 --set encoding_frequencies=0",
     };
     // A failure here must fail every test (gtest would only skip them).

@@ -46,8 +46,10 @@ BodyModel capsule_model() {
 
 struct Fixture {
   BodyModel model = capsule_model();
-  PoseSet poses = make_training_poses(model.data().joint_names, {2, 5, 1});
-  PoseSet ood = make_ood_poses(model.data().joint_names, {3, 2});
+  // Not SMPL's skeleton (three joints): motions inside given ranges.
+  JointRanges ranges = JointRanges(3, JointRange{{-0.3, -0.3, -0.3}, {0.3, 0.3, 0.3}});
+  PoseSet poses = make_training_poses(model.data().joint_names, ranges, {2, 5, 1});
+  PoseSet ood = make_ood_poses(model.data().joint_names, ranges, {3, 2});
   DatasetBuildOptions options(const fs::path& dir, uint64_t seed = 0) const {
     DatasetBuildOptions o;
     o.out_dir = dir.string();
@@ -88,7 +90,7 @@ TEST_F(DatasetBuilder, WritesFramesAndManifestWithDisjointSplits) {
   const auto manifest = nlohmann::json::parse(read_file((dir / "manifest.json").string()));
   EXPECT_TRUE(manifest["complete"].get<bool>());
   EXPECT_EQ(manifest["fskin_version"], FSKIN_VERSION);
-  EXPECT_EQ(manifest["canonical_pose"], "da");
+  EXPECT_EQ(manifest["canonical_pose"], "rest");  // the default for a skeleton that is not SMPL's
   EXPECT_EQ(manifest["sampling"]["uniform_points"], 600);
   std::set<std::string> all;
   size_t total = 0;
@@ -215,12 +217,20 @@ TEST_F(DatasetBuilder, CommandLineBuildsADataset) {
     return std::system((cli + " " + args + " > " + (dir / "log.txt").string() + " 2>&1").c_str());
   };
   const std::string model = (dir / "model.npz").string();
-  ASSERT_EQ(run("poses train --model " + model + " --out " + (dir / "p.npz").string() +
+  // A skeleton fskin has no motions for: it says so, and takes ranges from a clip.
+  EXPECT_NE(run("poses train --model " + model + " --out " + (dir / "p.npz").string()), 0);
+  EXPECT_NE(read_file((dir / "log.txt").string()).find("--ranges-from"), std::string::npos);
+  const std::string clip = (dir / "clip.npz").string();
+  f.poses.save(clip);
+  ASSERT_EQ(run("poses train --model " + model + " --ranges-from " + clip + " --out " + (dir / "p.npz").string() +
                 " --sequences 2 --frames 3"),
             0)
       << read_file((dir / "log.txt").string());
-  ASSERT_EQ(run("poses ood --model " + model + " --out " + (dir / "q.npz").string() + " --count 2"), 0)
+  ASSERT_EQ(run("poses ood --model " + model + " --ranges-from " + clip + " --out " + (dir / "q.npz").string() +
+                " --count 2"),
+            0)
       << read_file((dir / "log.txt").string());
+  EXPECT_NE(read_file((dir / "log.txt").string()).find("beyond the training ranges"), std::string::npos);
   ASSERT_EQ(run("--threads 2 data build --model " + model + " --poses " + (dir / "p.npz").string() +
                 " --ood-poses " + (dir / "q.npz").string() + " --out " + (dir / "set").string() +
                 " --points 1000 --seed 4 --quiet"),
@@ -228,6 +238,35 @@ TEST_F(DatasetBuilder, CommandLineBuildsADataset) {
       << read_file((dir / "log.txt").string());
   EXPECT_NE(read_file((dir / "log.txt").string()).find("8 frames written"), std::string::npos);
   EXPECT_EQ(Dataset::load((dir / "set").string(), "test_ood").size(), 2);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace fskin
+
+namespace fskin {
+namespace {
+
+TEST(CanonicalPose, DefaultIsTheModelsDeclaredPoseElseDaForSmplElseRest) {
+  const auto capsule = capsule_model();
+  EXPECT_EQ(resolve_canonical_pose(capsule, "default"), "rest");
+  EXPECT_EQ(canonical_pose(capsule, "default").abs().max().item<float>(), 0.0f);
+  EXPECT_EQ(resolve_canonical_pose(capsule, "da"), "da");  // asked for: it has the hips
+  // A model file that declares its canonical pose gets it, through save and load.
+  auto data = capsule.data();
+  data.canonical_pose = torch::zeros({3, 3});
+  data.canonical_pose[1][0] = 0.4;
+  const auto dir = testing::temp_dir("canonical_pose");
+  BodyModel(data, "declared").save((dir / "m.npz").string());
+  const auto declared = BodyModel::load((dir / "m.npz").string());
+  EXPECT_EQ(resolve_canonical_pose(declared, "default"), "model");
+  EXPECT_FLOAT_EQ(canonical_pose(declared, "default")[1][0].item<float>(), 0.4f);
+  data.canonical_pose = torch::zeros({2, 3});
+  testing::expect_error([&] { BodyModel(data, "bad.npz"); }, {"bad.npz", "canonical_pose"});
+  // The Da-pose of a skeleton without hips names what is missing.
+  data.canonical_pose = torch::Tensor();
+  data.joint_names = {"root", "a", "b"};
+  testing::expect_error([&] { canonical_pose(BodyModel(data, "x"), "da"); }, {"left_hip", "rest"});
   fs::remove_all(dir);
 }
 

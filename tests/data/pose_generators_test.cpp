@@ -4,6 +4,7 @@
 #include <torch/torch.h>
 
 #include "fskin/body/character.h"
+#include "fskin/body/quadruped.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -45,15 +46,51 @@ TEST(PoseGenerators, OodPosesExceedTheTrainingRanges) {
             train.poses.abs().amax({0}).max().item<float>() + 0.5f);
 }
 
-TEST(PoseGenerators, AnySkeletonWorks) {
+TEST(PoseGenerators, AnySkeletonTakesItsRangesFromData) {
   const auto names = generic_names(5);
-  const auto train = make_training_poses(names, {2, 10, 0});
-  for (int64_t i = 0; i < train.size(); ++i)
-    EXPECT_LE(training_range_excess(names, train.poses[i]), 1e-6);
-  EXPECT_GT(train.poses.abs().max().item<float>(), 0.05f);
-  const auto ood = make_ood_poses(names, {20, 0});
-  for (int64_t i = 0; i < ood.size(); ++i)
-    EXPECT_GE(training_range_excess(names, ood.poses[i]), kOodMargin);
+  // fskin has no motions for these names: it says so, and what to pass instead.
+  testing::expect_error([&] { make_training_poses(names, {2, 10, 0}); }, {"no built-in motions", "--ranges-from"});
+  testing::expect_error([&] { training_ranges(names); }, {"joint_0"});
+  // Ranges from a "clip": joint 2 never moves, joint 4 only about y.
+  PoseSet clip;
+  clip.poses = torch::zeros({3, 5, 3});
+  clip.poses[0][0] = torch::tensor({-0.2, 0.1, 0.0});
+  clip.poses[1][0] = torch::tensor({0.4, -0.1, 0.3});
+  clip.poses[2][1] = torch::tensor({0.5, 0.5, 0.5});
+  clip.poses[1][3] = torch::tensor({-0.3, 0.0, 0.2});
+  clip.poses[2][4] = torch::tensor({0.0, 0.6, 0.0});
+  clip.trans = torch::zeros({3, 3});
+  const auto ranges = ranges_of_poses(clip, "clip");
+  ASSERT_EQ(ranges.size(), 5u);
+  EXPECT_NEAR(ranges[0].low[0], -0.2, 1e-7);
+  EXPECT_NEAR(ranges[0].high[2], 0.3, 1e-7);
+  EXPECT_EQ(ranges[2].high, (std::array<double, 3>{0, 0, 0}));
+  const auto train = make_training_poses(names, ranges, {4, 10, 0});
+  for (int64_t i = 0; i < train.size(); ++i) EXPECT_LE(range_excess(ranges, train.poses[i]), 1e-6);
+  EXPECT_EQ(train.poses.select(1, 2).abs().max().item<float>(), 0.0f);  // still
+  EXPECT_GT((train.poses.select(1, 4).select(1, 1).amax() - train.poses.select(1, 4).select(1, 1).amin()).item<float>(),
+            0.2f);
+  const auto ood = make_ood_poses(names, ranges, {20, 0});
+  for (int64_t i = 0; i < ood.size(); ++i) {
+    EXPECT_GE(range_excess(ranges, ood.poses[i]), kOodMargin);
+    EXPECT_EQ(ood.poses[i][2].abs().max().item<float>(), 0.0f) << "a joint that never moves is not pushed";
+  }
+}
+
+TEST(PoseGenerators, QuadrupedMotionsStayInRangeAndOodGoesBeyond) {
+  const auto& names = quadruped_joint_names();
+  EXPECT_EQ(builtin_motions(names), "quadruped");
+  EXPECT_EQ(builtin_motions(smpl_joint_names()), "smpl");
+  const auto train = make_training_poses(names, {8, 20, 1});
+  for (int64_t i = 0; i < train.size(); ++i) ASSERT_LE(training_range_excess(names, train.poses[i]), 1e-6);
+  // Legs, neck and tail all move.
+  const auto spread = train.poses.amax(0) - train.poses.amin(0);  // [J, 3]
+  for (const char* joint : {"upper_arm_l", "thigh_r", "neck_base", "tail_3", "ear_l_base"}) {
+    const auto j = std::find(names.begin(), names.end(), joint) - names.begin();
+    EXPECT_GT(spread[j].max().item<float>(), 0.15f) << joint;
+  }
+  const auto ood = make_ood_poses(names, {40, 2});
+  for (int64_t i = 0; i < ood.size(); ++i) EXPECT_GE(training_range_excess(names, ood.poses[i]), kOodMargin) << i;
 }
 
 TEST(PoseGenerators, SeededAndDeterministic) {
@@ -80,7 +117,9 @@ TEST(PoseGenerators, PoseFileRoundTrip) {
 
 TEST(PoseGenerators, RejectsBadArguments) {
   testing::expect_error([] { make_training_poses({}, {}); }, {"no joints"});
-  testing::expect_error([] { make_ood_poses(generic_names(2), {0, 0}); }, {"count"});
+  testing::expect_error([] { make_ood_poses(smpl_joint_names(), {0, 0}); }, {"count"});
+  testing::expect_error([] { make_training_poses(generic_names(2), JointRanges(1), {1, 1, 0}); },
+                        {"1 joint ranges", "2 joints"});
 }
 
 }  // namespace

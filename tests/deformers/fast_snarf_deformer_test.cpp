@@ -284,3 +284,42 @@ TEST(DeformerGradients, ApproximateGradientAlignsWithExact) {
 
 }  // namespace
 }  // namespace fskin
+
+namespace fskin {
+namespace {
+
+using namespace fskin::testing;
+
+// The chain scaled by s (box, points, bone translations) with the options
+// scaled by s takes the same Broyden steps: same roots up to s, same validity.
+TEST(FastSnarfDeformer, ScaledOptionsMakeTheSearchIndependentOfUnits) {
+  torch::manual_seed(3);
+  const auto canonical = chain_points(3000, torch::kFloat64);
+  const auto bones = chain_bones(1.2, -0.9, 0.4, torch::kFloat64);
+  const auto options = DeformerOptions::fast_snarf();
+  FastSnarfDeformer unit(chain_field(torch::kFloat64), options);
+  torch::NoGradGuard no_grad;
+  const auto posed = unit.deform(canonical, bones);
+  const auto reference = unit.forward(posed, bones);
+  for (double s : {0.01, 50.0}) {
+    auto box = chain_box();
+    for (int a = 0; a < 3; ++a) {
+      box.offset[a] *= s;
+      box.scale[a] /= s;
+    }
+    const auto field = std::make_shared<FrozenSkinningField>(chain_field(torch::kFloat64)->grid_weights(), box);
+    auto scaled_bones = bones.clone();
+    scaled_bones.narrow(-2, 0, 3).select(-1, 3).mul_(s);
+    FastSnarfDeformer scaled(field, options.scaled(s));
+    const auto out = scaled.forward(posed * s, scaled_bones);
+    EXPECT_TRUE(torch::equal(out.valid, reference.valid)) << s;
+    EXPECT_LT((out.x_canonical / s - reference.x_canonical).abs().max().item<double>(), 1e-9) << s;
+    // Unscaled options at that size lose roots or keep wrong ones.
+    FastSnarfDeformer unscaled(field, options);
+    EXPECT_FALSE(torch::equal(unscaled.forward(posed * s, scaled_bones).valid, reference.valid)) << s;
+  }
+  EXPECT_THROW(options.scaled(0), Error);
+}
+
+}  // namespace
+}  // namespace fskin

@@ -31,7 +31,7 @@ inline TrainConfig tiny_config() {
   c.init_radius = 0.5;
   c.skinning_hidden_dim = 32;
   c.skinning_hidden_layers = 2;
-  c.grid = {8, 16, 16};
+  c.grid_resolution = 16;
   c.start_bones = "all";
   c.encoding_frequencies = 0;
   c.skinning_prior_steps = 0;

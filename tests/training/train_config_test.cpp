@@ -2,9 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "fskin/body/smpl_skeleton.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -94,6 +96,53 @@ TEST(TrainConfig, RunConfigsWrittenBeforeAKeyExistedKeepTheirBehaviour) {
   EXPECT_DOUBLE_EQ(old.pin_space_omega, 30.0);
   EXPECT_EQ(old.pin_pose_frame, "global");
   EXPECT_EQ(old.pin_bone_dropout, 0.0);
+  // Runs written before grid_resolution kept their explicit grid, in the person layout.
+  saved.erase("grid_resolution");
+  std::ofstream(path) << saved.dump();
+  EXPECT_EQ(TrainConfig::load_run(path.string()).grid_resolution, 0);
+}
+
+CanonicalSkeleton skeleton_of(std::vector<std::string> names, const torch::Tensor& extent) {
+  CanonicalSkeleton s;
+  s.joint_names = std::move(names);
+  for (size_t j = 0; j < s.joint_names.size(); ++j) s.parents.push_back(static_cast<int64_t>(j) - 1);
+  s.joints = torch::zeros({static_cast<int64_t>(s.joint_names.size()), 3});
+  s.extent = extent;
+  return s;
+}
+
+TEST(TrainConfig, DefaultsFollowTheSkeletonNotAPerson) {
+  // A long animal lying along z, 4 m long, with names fskin does not know.
+  std::vector<std::string> names;
+  for (int j = 0; j < 12; ++j) names.push_back("Bone." + std::to_string(j));
+  const auto extent = torch::tensor({{-0.3, 0.0, -2.0}, {0.3, 0.8, 2.0}});
+  const auto options = model_options(TrainConfig{}, skeleton_of(names, extent));
+  const auto& f = options.forward_skinning;
+  EXPECT_EQ(f.deformer.start_bones.mode, StartBones::Mode::Automatic);
+  EXPECT_EQ(f.deformer.start_bones.count, 9);
+  // The grid lies along z, 32 voxels along the 4 m, covering the whole body.
+  EXPECT_EQ(f.box.shape.depth, 32);
+  EXPECT_LE(f.box.shape.width, 11);  // 0.6 m + 2 x 10 % padding of 4 m
+  EXPECT_TRUE(f.box.contains(extent).all().item<bool>());
+  // Broyden's thresholds are lengths: for a 4 m body (4 / 1.7) x the papers'.
+  EXPECT_NEAR(f.deformer.converge_sq, 1e-8 * std::pow(4.0 / 1.7, 2), 1e-15);
+  EXPECT_NEAR(f.deformer.duplicate_distance, 1e-4 * 4.0 / 1.7, 1e-12);
+
+  // SMPL's names keep the papers' 9 start bones.
+  const auto smpl = model_options(TrainConfig{}, skeleton_of(smpl_joint_names(), extent));
+  EXPECT_EQ(smpl.forward_skinning.deformer.start_bones.mode, StartBones::Mode::Subset);
+  EXPECT_EQ(smpl.forward_skinning.deformer.start_bones.indices.size(), 9u);
+  // The explicit SMPL list on another skeleton names the missing joint.
+  TrainConfig c;
+  c.start_bones = "smpl-training";
+  testing::expect_error([&] { model_options(c, skeleton_of(names, extent)); }, {"pelvis", "automatic:K"});
+  // grid_resolution 0: the explicit grid in the papers' person layout.
+  c = TrainConfig{};
+  c.grid_resolution = 0;
+  const auto legacy = model_options(c, skeleton_of(names, extent)).forward_skinning.box;
+  EXPECT_EQ(legacy.shape.depth, 8);
+  EXPECT_FALSE(legacy.contains(extent).all().item<bool>());  // why it is no longer the default
+  testing::expect_error([&] { c.set("grid_resolution=2"); }, {"grid_resolution"});
 }
 
 TEST(TrainConfig, BootstrapLastsOneEpoch) {

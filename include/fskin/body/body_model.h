@@ -26,6 +26,9 @@ struct BodyModelData {
   std::vector<std::string> joint_names; // "joint_<j>" when the file has none
   torch::Tensor shapedirs;    // optional [V, 3, S]
   torch::Tensor posedirs;     // optional [V, 3, P], P = 9 (J - 1)
+  // Optional [J, 3] axis-angle: the pose the model declares as its canonical
+  // pose (key "canonical_pose"); datasets use it instead of the rest pose.
+  torch::Tensor canonical_pose;
 };
 
 struct PosedBody {
@@ -64,9 +67,10 @@ class BodyModel {
 // [B, J, 3, 3] -> [B, 9 (J - 1)].
 torch::Tensor pose_features(const torch::Tensor& rotations);
 
-// The papers' canonical "Da-pose": hips rotated by +-angle about the forward
-// (z) axis so the legs stand apart. Finds the hips by name ("left_hip",
-// "right_hip"); returns axis-angle [J, 3].
+// The papers' canonical "Da-pose" of SMPL skeletons (smpl_skeleton.h): hips
+// rotated by +-angle about SMPL's forward (z) axis so the legs stand apart;
+// returns axis-angle [J, 3]. Throws fskin::Error naming the skeleton unless
+// it has joints "left_hip" and "right_hip".
 torch::Tensor da_pose(const Skeleton& skeleton, double angle_radians = 0.5236);
 
 }  // namespace fskin

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "fskin/body/body_model.h"
+#include "fskin/body/smpl_skeleton.h"
 
 namespace fskin {
 
@@ -51,10 +52,6 @@ struct CharacterOptions {
   // Throws fskin::Error naming the option that is out of range.
   void validate() const;
 };
-
-// SMPL's 24 joint names and parents, in SMPL order.
-const std::vector<std::string>& smpl_joint_names();
-const std::vector<int64_t>& smpl_parents();
 
 BodyModelData make_character(const CharacterOptions& options);
 // The same, validated as a BodyModel (source "built-in character").

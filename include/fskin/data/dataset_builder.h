@@ -24,11 +24,13 @@ namespace fskin {
 struct DatasetBuildOptions {
   std::string out_dir;
   std::string model_source, poses_source, ood_poses_source;  // recorded in the manifest
-  SamplingOptions sampling;  // noise_sigma is for a 1.7 m body; scaled by the model's height
+  SamplingOptions sampling;  // noise_sigma is for a 1.7 m body; scaled by the model's size (character_size.h)
   uint64_t seed = 0;
   double val_fraction = 0.1;
   double test_fraction = 0.1;
-  std::string canonical_pose = "da";  // "da" (the papers') or "rest"
+  // "default" (the model's declared canonical pose; else the papers' Da-pose
+  // for SMPL skeletons; else the rest pose), "da" or "rest".
+  std::string canonical_pose = "default";
   bool progress = true;
   void validate() const;
 };
@@ -45,7 +47,10 @@ struct DatasetBuildSummary {
 DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
                                   const PoseSet& ood_poses, const DatasetBuildOptions& options);
 
-// Canonical pose of the dataset as axis-angle [J, 3]: da_pose() or zeros.
+// Canonical pose of the dataset as axis-angle [J, 3] for a canonical-pose
+// option ("default", "da", "rest"), and the name it resolved to.
+// "default" resolves to "model", "da" or "rest"; other names resolve to themselves.
+std::string resolve_canonical_pose(const BodyModel& model, const std::string& name);
 torch::Tensor canonical_pose(const BodyModel& model, const std::string& name);
 
 inline const std::vector<std::string>& dataset_split_names() {

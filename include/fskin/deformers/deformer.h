@@ -34,9 +34,16 @@ struct DeformerOptions {
   double duplicate_distance = 1e-4;
   int64_t chunk_points = 1 << 18;  // posed points per chunk (bounds temporary memory)
 
-  // The reference settings of each paper.
+  // The reference settings of each paper, for a character about
+  // kReferenceCharacterSize (1.7 m) along its longest side.
   static DeformerOptions snarf();       // 50 iterations, |r| < 1e-5, |r| > 1, exact gradient, no final step
   static DeformerOptions fast_snarf();  // 10 iterations, |r|^2 < 1e-8, |r|^2 > 0.25, approximate
+
+  // The same options with every length multiplied by `length_unit`
+  // (character_size.h): the residual thresholds (squared: by its square) and
+  // the duplicate distance. Broyden's steps and Jacobians have no unit, so a
+  // character scaled by s then takes exactly the steps it takes unscaled.
+  DeformerOptions scaled(double length_unit) const;
 };
 
 struct DeformerStats {

@@ -72,7 +72,15 @@ struct TrainConfig {
   // and that limb detaches in canonical space (OOD IoU_bbox 0.74 vs 0.87 for
   // two seeds); at 0.3 both seeds reach 0.92 (docs/benchmarks.md).
   double skinning_learning_rate_factor = 0.3;
-  // 8 x 32 x 32: nearly as good as 16 x 64 x 64 in Fast-SNARF's ablation, 8x fewer voxels.
+  // Fast-SNARF's skinning grid: grid_resolution voxels along the canonical
+  // body's longest side, the other sides as many as keep voxels near-cubic
+  // (VoxelBox::fit), so the grid follows any character's proportions and
+  // orientation. 32: about the papers' 8 x 32 x 32 demo grid for a person
+  // (nearly as good as 16 x 64 x 64 in Fast-SNARF's ablation). 0: the
+  // explicit `grid` [depth, height, width] in the papers' person layout (x and
+  // y square, z a quarter of the longest side; VoxelBox::around), which is
+  // what run configs written before grid_resolution existed used.
+  int64_t grid_resolution = 32;
   std::vector<int64_t> grid{8, 32, 32};
   // Emptiness prior on the canonical shape (losses/canonical_sparsity.h):
   // weight of the BCE towards "outside" at canonical_sparsity_points points
@@ -121,8 +129,9 @@ struct TrainConfig {
   // Piecewise baseline: one MLP per bone.
   int64_t part_hidden_dim = 64;
   int64_t part_hidden_layers = 3;
-  // "smpl-training" (the papers' 9 bones), "all", or "automatic:K".
-  std::string start_bones = "smpl-training";
+  // "default": the papers' 9 SMPL bones on skeletons with SMPL's joint names,
+  // automatic:9 on any other skeleton; or "smpl-training", "all", "automatic:K".
+  std::string start_bones = "default";
   int64_t max_iterations = 0;  // 0: the method's reference value
   // Which SNARF roots count (method "snarf" only): "converged" (the SNARF
   // paper and its code: every converged root, wherever it lies) or "in-box"
