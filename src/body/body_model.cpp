@@ -35,9 +35,18 @@ BodyModel::BodyModel(BodyModelData data, const std::string& source) : data_(std:
   FSKIN_CHECK(sum_err < 1e-3, "{}: weights rows must sum to 1 (max deviation {:.3g})", source,
               sum_err);
 
-  expect_shape(d.J_regressor, {J, V}, source + ": J_regressor");
-  d.J_regressor = d.J_regressor.to(torch::kFloat32).contiguous();
-  expect_finite(d.J_regressor, source + ": J_regressor");
+  FSKIN_CHECK(d.J_regressor.defined() || d.rest_joints.defined(),
+              "{}: needs a joint regressor 'J_regressor' or rest joints 'rest_joints'", source);
+  if (d.J_regressor.defined()) {
+    expect_shape(d.J_regressor, {J, V}, source + ": J_regressor");
+    d.J_regressor = d.J_regressor.to(torch::kFloat32).contiguous();
+    expect_finite(d.J_regressor, source + ": J_regressor");
+  }
+  if (d.rest_joints.defined()) {
+    expect_shape(d.rest_joints, {J, 3}, source + ": rest_joints");
+    d.rest_joints = d.rest_joints.to(torch::kFloat32).contiguous();
+    expect_finite(d.rest_joints, source + ": rest_joints");
+  }
 
   if (d.joint_names.empty())
     for (int64_t j = 0; j < J; ++j) d.joint_names.push_back("joint_" + std::to_string(j));
@@ -61,14 +70,17 @@ BodyModel::BodyModel(BodyModelData data, const std::string& source) : data_(std:
 
 BodyModel BodyModel::load(const std::string& path) {
   io::NpzReader npz(path);
-  for (const char* key : {"v_template", "f", "weights", "J_regressor", "kintree_table"})
+  for (const char* key : {"v_template", "f", "weights", "kintree_table"})
     FSKIN_CHECK(npz.contains(key), "{}: missing array '{}' (not an SMPL-format model file)", path,
                 key);
+  FSKIN_CHECK(npz.contains("J_regressor") || npz.contains("rest_joints"),
+              "{}: missing array 'J_regressor' (or 'rest_joints'): not an SMPL-format model file", path);
   BodyModelData d;
   d.v_template = npz.tensor("v_template");
   d.faces = npz.tensor("f");
   d.weights = npz.tensor("weights");
-  d.J_regressor = npz.tensor("J_regressor");
+  if (npz.contains("J_regressor")) d.J_regressor = npz.tensor("J_regressor");
+  if (npz.contains("rest_joints")) d.rest_joints = npz.tensor("rest_joints");
   const auto kintree = npz.tensor("kintree_table").to(torch::kInt64);
   FSKIN_CHECK(kintree.dim() == 2 && kintree.size(0) == 2,
               "{}: kintree_table must be (2, J), got {}", path, shape_string(kintree.sizes()));
@@ -94,7 +106,8 @@ void BodyModel::save(const std::string& path) const {
   npz.add("v_template", data_.v_template);
   npz.add("f", data_.faces.to(torch::kInt32));
   npz.add("weights", data_.weights);
-  npz.add("J_regressor", data_.J_regressor);
+  if (data_.J_regressor.defined()) npz.add("J_regressor", data_.J_regressor);
+  if (data_.rest_joints.defined()) npz.add("rest_joints", data_.rest_joints);
   auto parents = torch::tensor(data_.parents, torch::kInt64);
   npz.add("kintree_table",
           torch::stack({parents, torch::arange(num_joints(), torch::kInt64)}).to(torch::kInt32));
@@ -107,7 +120,8 @@ void BodyModel::save(const std::string& path) const {
 
 Skeleton BodyModel::skeleton() const {
   return Skeleton{data_.joint_names, data_.parents,
-                  torch::matmul(data_.J_regressor, data_.v_template)};
+                  data_.rest_joints.defined() ? data_.rest_joints.clone()
+                                              : torch::matmul(data_.J_regressor, data_.v_template)};
 }
 
 Mesh BodyModel::template_mesh() const { return Mesh{data_.v_template, data_.faces, {}}; }
@@ -132,7 +146,9 @@ PosedBody BodyModel::pose(const torch::Tensor& axis_angle, const torch::Tensor& 
     const auto dirs = data_.shapedirs.narrow(2, 0, betas.size(1));  // [V, 3, S]
     v_shaped = v_shaped + torch::einsum("vcs,bs->bvc", {dirs, betas.to(torch::kFloat32)});
   }
-  const auto joints = torch::matmul(data_.J_regressor, v_shaped);  // [B, J, 3]
+  // Rest joints given directly do not follow the shape (imported rigs have no shape space).
+  const auto joints = data_.rest_joints.defined() ? data_.rest_joints.unsqueeze(0).expand({B, -1, -1})
+                                                  : torch::matmul(data_.J_regressor, v_shaped);  // [B, J, 3]
   const auto rotations = axis_angle_to_matrix(axis_angle.to(torch::kFloat32));
   auto v_posed = v_shaped;
   if (data_.posedirs.defined())

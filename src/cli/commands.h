@@ -7,6 +7,8 @@ namespace fskin::cli {
 void register_animate(CLI::App& app);
 void register_bench(CLI::App& app);
 void register_character(CLI::App& app);
+void register_export(CLI::App& app);
+void register_import(CLI::App& app);
 void register_pose(CLI::App& app);
 void register_poses(CLI::App& app);
 void register_data(CLI::App& app);

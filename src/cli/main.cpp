@@ -25,6 +25,8 @@ int main(int argc, char** argv) {
   fskin::cli::register_animate(app);
   fskin::cli::register_bench(app);
   fskin::cli::register_character(app);
+  fskin::cli::register_export(app);
+  fskin::cli::register_import(app);
   fskin::cli::register_pose(app);
   fskin::cli::register_poses(app);
   fskin::cli::register_data(app);

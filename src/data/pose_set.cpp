@@ -20,6 +20,12 @@ PoseSet PoseSet::load(const std::string& path) {
   if (npz.contains("trans")) set.trans = npz.tensor("trans").to(torch::kFloat32);
   else if (set.poses.dim() == 3) set.trans = torch::zeros({set.poses.size(0), 3});
   if (npz.contains("joint_names")) set.joint_names = npz.strings("joint_names");
+  if (npz.contains("clip_names")) {
+    set.clip_names = npz.strings("clip_names");
+    FSKIN_CHECK(npz.contains("clip_starts"), "{}: 'clip_names' without 'clip_starts'", path);
+    const auto starts = npz.tensor("clip_starts").to(torch::kInt64).flatten();
+    for (int64_t i = 0; i < starts.size(0); ++i) set.clip_starts.push_back(starts[i].item<int64_t>());
+  }
   set.validate(path);
   return set;
 }
@@ -30,6 +36,10 @@ void PoseSet::save(const std::string& path) const {
   npz.add("poses", poses.contiguous());
   npz.add("trans", trans.contiguous());
   if (!joint_names.empty()) npz.add_strings("joint_names", joint_names);
+  if (!clip_names.empty()) {
+    npz.add_strings("clip_names", clip_names);
+    npz.add("clip_starts", torch::tensor(clip_starts, torch::kInt64));
+  }
   npz.save(path, /*compress=*/true);
 }
 
@@ -43,6 +53,12 @@ void PoseSet::validate(const std::string& context, int64_t expected_joints,
   if (!joint_names.empty())
     FSKIN_CHECK(static_cast<int64_t>(joint_names.size()) == poses.size(1),
                 "{}: {} joint names for {} joints", context, joint_names.size(), poses.size(1));
+  FSKIN_CHECK(clip_names.size() == clip_starts.size(), "{}: {} clip names for {} clip starts", context,
+              clip_names.size(), clip_starts.size());
+  for (size_t c = 0; c < clip_starts.size(); ++c)
+    FSKIN_CHECK(clip_starts[c] >= 0 && clip_starts[c] < poses.size(0) && (c == 0 ? clip_starts[c] == 0 : clip_starts[c] > clip_starts[c - 1]),
+                "{}: clip '{}' starts at pose {}: clip starts must increase from 0 within the {} poses", context,
+                clip_names[c], clip_starts[c], poses.size(0));
   if (!joint_names.empty() && !expected_names.empty() && joint_names != expected_names)
     fail("{}: joint names do not match the model's (first pose joint '{}', model joint '{}')",
          context, joint_names.front(), expected_names.front());

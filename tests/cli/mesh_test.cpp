@@ -8,7 +8,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "fskin/body/body_model.h"
+#include "fskin/data/dataset_posing.h"
 #include "fskin/data/inside_test.h"
+#include "fskin/export/skinned_gltf.h"
+#include "fskin/import/gltf_import.h"
+#include "fskin/inference/trained_run.h"
+#include "fskin/skeleton/lbs.h"
 #include "fskin/data/pose_set.h"
 #include "fskin/geometry/mesh_topology.h"
 #include "fskin/io/mesh_io.h"
@@ -133,6 +139,35 @@ TEST_F(MeshCommand, AnimateWritesOneMeshPerPose) {
   PoseSet{torch::zeros({2, 3, 3}), torch::zeros({2, 3}), {}}.save(path("three.npz"));
   expect_failure("animate " + path("run") + " --poses " + path("three.npz") + " --out " + path("other"), "three.npz");
   EXPECT_NE(log().find("24"), std::string::npos) << log();
+}
+
+// The rigged avatar plays back, in any glTF player, as the learned skinning of
+// its canonical mesh with the four largest weights per vertex.
+TEST_F(MeshCommand, ExportWritesARiggedAvatarThatPosesLikeTheLearnedSkinning) {
+  const auto glb = path("avatar.glb");
+  ASSERT_EQ(run_cli("export " + path("run") + " --out " + glb + " --clip " + path("poses.npz") +
+                    " --resolution 32 --initial 8"),
+            0)
+      << log();
+  EXPECT_NE(log().find("4 influences per vertex, 5 poses"), std::string::npos) << log();
+  // Two training steps leave the canonical surface open at the box: keep it.
+  const auto imported = import_gltf(glb, {/*keep_open_parts=*/true});
+  ASSERT_EQ(imported.clips.size(), 1u);
+  const BodyModel avatar(imported.model, glb);
+  EXPECT_EQ(avatar.num_joints(), 24);
+  const auto run = TrainedRun::load(path("run"));
+  EXPECT_LT((imported.model.rest_joints - run.skeleton.joints).abs().max().item<float>(), 1e-5);
+  const auto& clip = imported.clips[0].poses;
+  const auto played = avatar.pose(clip.poses, {}, clip.trans).vertices;  // [5, V, 3]
+  torch::NoGradGuard no_grad;
+  const auto vertices = imported.model.v_template;
+  const auto [ids, values] = top_influences(run.model->canonical_skinning_field()->weights(vertices));
+  const auto top4 = torch::zeros({vertices.size(0), avatar.num_joints()}).scatter_add(1, ids, values);
+  const auto bones = DatasetPosing::load(run.data_dir).bone_transforms(PoseSet::load(path("poses.npz")), "poses");
+  const auto expected = linear_blend_skinning(vertices.unsqueeze(0).expand({5, -1, -1}), top4, bones);
+  const double height = (std::get<0>(vertices.max(0)) - std::get<0>(vertices.min(0))).max().item<double>();
+  EXPECT_LT((played - expected).abs().max().item<double>(), 1e-4 * height);
+  expect_failure("export " + path("run") + " --out " + path("avatar.fbx"), ".glb");
 }
 
 }  // namespace

@@ -3,7 +3,7 @@
 //      no errors and no warnings;
 //   2. three.js's GLTFLoader: one mesh, whose morph targets (one per frame
 //      after the first) all have the base mesh's vertex count, and one
-//      animation.
+//      animation; for a skinned mesh, its skeleton's bone count and clips.
 // Usage: node check.mjs FILE.glb|FILE.gltf ...   (exit status 1 on any problem)
 // Prints one JSON line per file, so tests and people can read the counts.
 import fs from 'node:fs';
@@ -56,6 +56,9 @@ async function check(path) {
     frames: targets.length + 1,
     duration_s: gltf.animations[0]?.duration ?? 0,
     colors: Boolean(geometry?.attributes.color),
+    skinned: Boolean(meshes[0]?.isSkinnedMesh),
+    bones: meshes[0]?.skeleton?.bones.length ?? 0,
+    clips: gltf.animations.length,
     problems,
   }));
   return problems.length === 0;

@@ -21,7 +21,10 @@ struct BodyModelData {
   torch::Tensor v_template;   // [V, 3] float
   torch::Tensor faces;        // [F, 3] int64
   torch::Tensor weights;      // [V, J] float, rows >= 0 and summing to 1
-  torch::Tensor J_regressor;  // [J, V] float
+  torch::Tensor J_regressor;  // [J, V] float; optional when rest_joints is given
+  // Optional [J, 3]: rest joints given directly (imported rigs: from their
+  // inverse bind matrices), used instead of J_regressor v_shaped (key "rest_joints").
+  torch::Tensor rest_joints;
   std::vector<int64_t> parents;         // from kintree_table; parents[0] == -1
   std::vector<std::string> joint_names; // "joint_<j>" when the file has none
   torch::Tensor shapedirs;    // optional [V, 3, S]

@@ -3,6 +3,8 @@
 //   poses       (N, J, 3) float  per-joint axis-angle, radians, relative to the parent
 //   trans       (N, 3)    float  optional root translation, metres
 //   joint_names (J,)      '<U'   optional; checked against the model when present
+//   clip_names  (C,)      '<U'   optional: named clips back to back (imported animations)
+//   clip_starts (C,)      int64  first pose of each clip, increasing from 0
 #include <torch/types.h>
 
 #include <string>
@@ -14,6 +16,8 @@ struct PoseSet {
   torch::Tensor poses;                  // [N, J, 3] float32
   torch::Tensor trans;                  // [N, 3] float32 (zeros when the file has none)
   std::vector<std::string> joint_names; // may be empty
+  std::vector<std::string> clip_names;  // may be empty; else one per clip
+  std::vector<int64_t> clip_starts;     // as many as clip_names
 
   int64_t size() const { return poses.defined() ? poses.size(0) : 0; }
   int64_t num_joints() const { return poses.defined() ? poses.size(1) : 0; }

@@ -1,0 +1,44 @@
+#pragma once
+// A skinned character as a glTF 2.0 asset that engines, three.js and Blender
+// play as a normal rigged character: one mesh with JOINTS_0 / WEIGHTS_0 (the
+// four largest influences per vertex, renormalised), a skin whose joints are
+// nodes of the kinematic tree, and optionally a pose set as an animation.
+//
+// Joint nodes carry fskin's joint frames (docs/conventions.md): at rest a
+// joint's translation is rest_j - rest_parent and its rotation the identity,
+// and its inverse bind matrix translates by -rest_j, so the skinning matrix
+// of joint j is exactly forward_kinematics' bone transform B_j. The
+// animation has one rotation channel per joint (the pose's local rotations)
+// and a translation channel for the root (rest_0 + trans), LINEAR, one
+// keyframe per pose at t = i / fps.
+#include <torch/types.h>
+
+#include <string>
+#include <utility>
+
+#include "fskin/data/pose_set.h"
+#include "fskin/geometry/mesh.h"
+#include "fskin/skeleton/skeleton.h"
+
+namespace fskin {
+
+struct SkinnedCharacter {
+  Mesh mesh;              // the rest (bind) pose
+  torch::Tensor weights;  // [V, J] >= 0, rows summing to 1
+  Skeleton skeleton;      // names, parents, rest joints of the bind pose
+  PoseSet animation;      // optional (size() == 0: none); poses relative to the rest pose
+  double fps = 30;
+  std::string animation_name = "poses";
+
+  // Throws fskin::Error prefixed with `context` on mismatched shapes.
+  void validate(const std::string& context) const;
+};
+
+// The `k` largest weights per vertex, renormalised: (joint indices [V, k]
+// int64, weights [V, k] float).
+std::pair<torch::Tensor, torch::Tensor> top_influences(const torch::Tensor& weights, int64_t k = 4);
+
+// Writes `character` to path (.glb or .gltf) atomically.
+void write_skinned_gltf(const std::string& path, const SkinnedCharacter& character);
+
+}  // namespace fskin

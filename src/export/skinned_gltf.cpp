@@ -1,0 +1,158 @@
+#include "fskin/export/skinned_gltf.h"
+
+#include <torch/torch.h>
+
+#include <algorithm>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+#include "fskin/skeleton/rotations.h"
+#include "io/gltf_file.h"
+
+namespace fskin {
+
+void SkinnedCharacter::validate(const std::string& context) const {
+  mesh.validate(context);
+  skeleton.validate(context);
+  expect_shape(weights, {mesh.num_vertices(), skeleton.num_joints()}, context + ": weights");
+  expect_finite(weights, context + ": weights");
+  FSKIN_CHECK(skeleton.num_joints() <= 65535, "{}: {} joints do not fit glTF's 16-bit joint indices", context,
+              skeleton.num_joints());
+  if (animation.size() > 0) animation.validate(context + ": animation", skeleton.num_joints());
+  FSKIN_CHECK(fps > 0, "{}: fps {} must be positive", context, fps);
+}
+
+std::pair<torch::Tensor, torch::Tensor> top_influences(const torch::Tensor& weights, int64_t k) {
+  expect_shape(weights, {-1, -1}, "top_influences: weights");
+  const int64_t kept = std::min<int64_t>(k, weights.size(1));
+  auto [values, indices] = weights.to(torch::kFloat32).clamp_min(0).topk(kept, 1);
+  const auto total = values.sum(1, true);
+  FSKIN_CHECK((total > 0).all().item<bool>(), "top_influences: a vertex has no positive weight");
+  values = values / total;
+  if (kept < k) {  // pad: glTF's JOINTS_0 / WEIGHTS_0 hold four
+    values = torch::cat({values, torch::zeros({values.size(0), k - kept})}, 1);
+    indices = torch::cat({indices, torch::zeros({indices.size(0), k - kept}, torch::kInt64)}, 1);
+  }
+  return {indices, values};
+}
+
+void write_skinned_gltf(const std::string& path, const SkinnedCharacter& character) {
+  character.validate(path);
+  const bool binary = gltf::is_binary_path(path);
+  const int64_t V = character.mesh.num_vertices(), J = character.skeleton.num_joints();
+  tinygltf::Model model;
+  model.asset.version = "2.0";
+  model.asset.generator = "fskin";
+  gltf::BufferWriter writer(model);
+
+  // Mesh: positions, uint32 indices, top-4 joints (uint16) and weights.
+  tinygltf::Primitive primitive;
+  primitive.mode = TINYGLTF_MODE_TRIANGLES;
+  primitive.attributes["POSITION"] =
+      writer.add_floats(character.mesh.vertices, TINYGLTF_TYPE_VEC3, TINYGLTF_TARGET_ARRAY_BUFFER);
+  const auto faces = character.mesh.faces.to(torch::kInt32).contiguous();
+  tinygltf::Accessor indices;
+  indices.bufferView =
+      writer.add_view(faces.data_ptr<int32_t>(), faces.numel() * sizeof(int32_t), TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+  indices.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+  indices.type = TINYGLTF_TYPE_SCALAR;
+  indices.count = static_cast<size_t>(faces.numel());
+  primitive.indices = writer.add_accessor(indices);
+  const auto [joint_ids, joint_weights] = top_influences(character.weights);
+  const auto ids16 = joint_ids.to(torch::kInt32).clamp(0, 65535).to(torch::kInt16).contiguous();
+  tinygltf::Accessor joints;
+  joints.bufferView = writer.add_view(ids16.data_ptr<int16_t>(), ids16.numel() * sizeof(int16_t),
+                                      TINYGLTF_TARGET_ARRAY_BUFFER);
+  joints.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+  joints.type = TINYGLTF_TYPE_VEC4;
+  joints.count = static_cast<size_t>(V);
+  primitive.attributes["JOINTS_0"] = writer.add_accessor(joints);
+  const int weights_accessor = writer.add_floats(joint_weights, TINYGLTF_TYPE_VEC4, TINYGLTF_TARGET_ARRAY_BUFFER);
+  // Only positions need min/max; keep the weights' accessor lean.
+  model.accessors[weights_accessor].minValues.clear();
+  model.accessors[weights_accessor].maxValues.clear();
+  primitive.attributes["WEIGHTS_0"] = weights_accessor;
+  tinygltf::Material material;
+  material.name = "skin";
+  material.pbrMetallicRoughness.baseColorFactor = {0.8, 0.8, 0.8, 1.0};
+  material.doubleSided = false;
+  model.materials.push_back(material);
+  primitive.material = 0;
+  tinygltf::Mesh mesh;
+  mesh.name = "character";
+  mesh.primitives.push_back(primitive);
+  model.meshes.push_back(mesh);
+
+  // Joint nodes 0..J-1 in fskin's order, then the mesh node.
+  const auto rest = character.skeleton.rest_joints.to(torch::kFloat64).contiguous();
+  const auto rest_at = [&](int64_t j, int a) { return rest.data_ptr<double>()[3 * j + a]; };
+  const auto& parents = character.skeleton.parents;
+  for (int64_t j = 0; j < J; ++j) {
+    tinygltf::Node node;
+    node.name = character.skeleton.joint_names[j];
+    for (int a = 0; a < 3; ++a) node.translation.push_back(rest_at(j, a) - (parents[j] < 0 ? 0.0 : rest_at(parents[j], a)));
+    model.nodes.push_back(node);
+  }
+  for (int64_t j = 1; j < J; ++j) model.nodes[parents[j]].children.push_back(static_cast<int>(j));
+  auto inverse_bind = torch::eye(4, torch::kFloat64).repeat({J, 1, 1});
+  inverse_bind.narrow(1, 0, 3).select(2, 3).copy_(-rest);
+  // glTF matrices are column-major: store the transpose of each row-major matrix.
+  tinygltf::Skin skin;
+  skin.name = "skeleton";
+  skin.skeleton = 0;
+  for (int64_t j = 0; j < J; ++j) skin.joints.push_back(static_cast<int>(j));
+  const auto column_major = inverse_bind.transpose(1, 2).to(torch::kFloat32).contiguous().view({J, 16});
+  const int ibm = writer.add_floats(column_major, TINYGLTF_TYPE_MAT4, 0);
+  model.accessors[ibm].minValues.clear();
+  model.accessors[ibm].maxValues.clear();
+  skin.inverseBindMatrices = ibm;
+  model.skins.push_back(skin);
+  tinygltf::Node mesh_node;
+  mesh_node.name = "character";
+  mesh_node.mesh = 0;
+  mesh_node.skin = 0;
+  model.nodes.push_back(mesh_node);
+  tinygltf::Scene scene;
+  scene.nodes = {0, static_cast<int>(J)};
+  model.scenes.push_back(scene);
+  model.defaultScene = 0;
+
+  const int64_t T = character.animation.size();
+  if (T > 0) {
+    const auto times = torch::arange(T, torch::kFloat64) / character.fps;
+    const int input = writer.add_floats(times.unsqueeze(1), TINYGLTF_TYPE_SCALAR, 0);
+    tinygltf::Animation clip;
+    clip.name = character.animation_name;
+    // fskin quaternions are (w, x, y, z); glTF's are (x, y, z, w).
+    const auto q = matrix_to_quaternion(axis_angle_to_matrix(character.animation.poses.to(torch::kFloat64)));
+    const auto xyzw = torch::cat({q.narrow(-1, 1, 3), q.narrow(-1, 0, 1)}, -1);  // [T, J, 4]
+    for (int64_t j = 0; j < J; ++j) {
+      tinygltf::AnimationSampler sampler;
+      sampler.input = input;
+      sampler.interpolation = "LINEAR";
+      sampler.output = writer.add_floats(xyzw.select(1, j).contiguous(), TINYGLTF_TYPE_VEC4, 0);
+      model.accessors[sampler.output].minValues.clear();
+      model.accessors[sampler.output].maxValues.clear();
+      clip.samplers.push_back(sampler);
+      tinygltf::AnimationChannel channel;
+      channel.sampler = static_cast<int>(clip.samplers.size()) - 1;
+      channel.target_node = static_cast<int>(j);
+      channel.target_path = "rotation";
+      clip.channels.push_back(channel);
+    }
+    tinygltf::AnimationSampler root;
+    root.input = input;
+    root.interpolation = "LINEAR";
+    root.output = writer.add_floats(character.animation.trans.to(torch::kFloat64) + rest[0], TINYGLTF_TYPE_VEC3, 0);
+    clip.samplers.push_back(root);
+    tinygltf::AnimationChannel channel;
+    channel.sampler = static_cast<int>(clip.samplers.size()) - 1;
+    channel.target_node = 0;
+    channel.target_path = "translation";
+    clip.channels.push_back(channel);
+    model.animations.push_back(clip);
+  }
+  gltf::save(path, model, binary);
+}
+
+}  // namespace fskin

@@ -1,0 +1,40 @@
+#include "fskin/inference/rigged_avatar.h"
+
+#include <torch/torch.h>
+
+#include "fskin/core/error.h"
+#include "fskin/skeleton/pose_from_bones.h"
+
+namespace fskin {
+
+SkinnedCharacter rigged_avatar(OccupancyModel& model, const std::string& method, const CanonicalSkeleton& skeleton,
+                               const Mesh& canonical_mesh, const torch::Tensor& bones, double fps) {
+  FSKIN_CHECK(method == "fast-snarf" || method == "snarf",
+              "export: a rigged avatar needs LBS of a canonical shape (fast-snarf or snarf runs); method '{}' {}",
+              method,
+              method == "ins" ? "adds pose-dependent PIN deformations that a glTF skin cannot hold"
+                              : "has no canonical skinning weights");
+  auto* field = model.canonical_skinning_field();
+  FSKIN_CHECK(field != nullptr, "export: the {} model has no canonical skinning field", method);
+  FSKIN_CHECK(canonical_mesh.num_faces() > 0, "export: the canonical mesh is empty");
+  SkinnedCharacter character;
+  character.mesh = canonical_mesh;
+  character.mesh.colors = torch::Tensor();
+  {
+    torch::NoGradGuard no_grad;
+    character.weights = field->weights(canonical_mesh.vertices.to(torch::kFloat32)).to(torch::kCPU, torch::kFloat32);
+  }
+  character.skeleton.joint_names = skeleton.joint_names;
+  character.skeleton.parents = skeleton.parents;
+  character.skeleton.rest_joints = skeleton.joints.to(torch::kFloat32);
+  character.fps = fps;
+  if (bones.defined() && bones.numel() > 0) {
+    const auto pose = pose_from_bone_transforms(skeleton.parents, skeleton.joints, bones);
+    character.animation.poses = pose.local_rotations;
+    character.animation.trans = pose.root_translation;
+    character.animation.joint_names = skeleton.joint_names;
+  }
+  return character;
+}
+
+}  // namespace fskin

@@ -1,0 +1,165 @@
+// Rigged characters through glTF and back: the built-in characters exported
+// as skinned glTF (export/skinned_gltf.h) and imported (import/gltf_import.h)
+// give the same mesh, weights, skeleton and poses; files that cannot be used
+// are errors that name the file and the problem.
+#include "fskin/import/gltf_import.h"
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <nlohmann/json.hpp>
+
+#include "fskin/body/character.h"
+#include "fskin/body/quadruped.h"
+#include "fskin/data/pose_generators.h"
+#include "fskin/export/gltf_animation.h"
+#include "fskin/export/skinned_gltf.h"
+#include "fskin/skeleton/rotations.h"
+#include "fskin/util/atomic_file.h"
+#include "test_util.h"
+
+namespace fskin {
+namespace {
+
+namespace fs = std::filesystem;
+
+BodyModel small_model(bool quadruped) {
+  if (quadruped) {
+    QuadrupedOptions o;
+    o.resolution = 64;
+    return make_quadruped_model(o);
+  }
+  CharacterOptions o;
+  o.resolution = 48;
+  return make_character_model(o);
+}
+
+SkinnedCharacter skinned(const BodyModel& model, int64_t frames) {
+  SkinnedCharacter c;
+  c.mesh = model.template_mesh();
+  c.weights = model.data().weights;
+  c.skeleton = model.skeleton();
+  if (frames > 0) {
+    c.animation = make_training_poses(model.data().joint_names, {1, frames, 5});
+    c.animation.trans = torch::randn({frames, 3}) * 0.2;
+  }
+  c.fps = 24;
+  return c;
+}
+
+// The dense weights a top-4 export keeps.
+torch::Tensor top4_dense(const torch::Tensor& weights) {
+  const auto [ids, values] = top_influences(weights);
+  return torch::zeros_like(weights).scatter_add(1, ids, values);
+}
+
+class GltfRoundTrip : public ::testing::TestWithParam<bool> {};
+
+TEST_P(GltfRoundTrip, GivesTheSameMeshWeightsSkeletonAndPoses) {
+  const auto dir = testing::temp_dir("gltf_round_trip");
+  const auto model = small_model(GetParam());
+  const auto character = skinned(model, 6);
+  const auto path = (dir / "character.glb").string();
+  write_skinned_gltf(path, character);
+  const auto imported = import_gltf(path);
+  const auto& d = imported.model;
+  EXPECT_TRUE(torch::allclose(d.v_template, character.mesh.vertices, 0, 1e-5));
+  EXPECT_TRUE(torch::equal(d.faces, character.mesh.faces));
+  EXPECT_LT((d.weights - top4_dense(character.weights)).abs().max().item<float>(), 1e-5);
+  EXPECT_EQ(d.joint_names, character.skeleton.joint_names);
+  EXPECT_EQ(d.parents, character.skeleton.parents);
+  EXPECT_LT((d.rest_joints - character.skeleton.rest_joints).abs().max().item<float>(), 1e-5);
+  ASSERT_EQ(imported.clips.size(), 1u);
+  const auto& clip = imported.clips[0];
+  EXPECT_EQ(clip.name, "poses");
+  EXPECT_NEAR(clip.fps, 24, 1e-3);
+  ASSERT_EQ(clip.poses.size(), 6);
+  const auto expected = axis_angle_to_matrix(character.animation.poses);
+  const auto got = axis_angle_to_matrix(clip.poses.poses);
+  EXPECT_LT((got - expected).abs().max().item<float>(), 1e-5);
+  EXPECT_LT((clip.poses.trans - character.animation.trans).abs().max().item<float>(), 1e-5);
+  EXPECT_LT(clip.max_joint_drift, 1e-5);
+  // The imported model poses like the original with its top-4 weights.
+  BodyModelData reference = model.data();
+  reference.weights = top4_dense(reference.weights);
+  reference.posedirs = torch::Tensor();
+  const auto a = BodyModel(reference, "reference").pose(character.animation.poses, {}, character.animation.trans);
+  const auto b = BodyModel(d, path).pose(clip.poses.poses, {}, clip.poses.trans);
+  EXPECT_LT((a.vertices - b.vertices).abs().max().item<float>(), 1e-4);
+  // Clips come out as one pose file with their names.
+  const auto clips = concatenate_clips(imported.clips);
+  clips.save((dir / "clips.npz").string());
+  EXPECT_EQ(PoseSet::load((dir / "clips.npz").string()).clip_names, std::vector<std::string>{"poses"});
+  fs::remove_all(dir);
+}
+
+INSTANTIATE_TEST_SUITE_P(BuiltInCharacters, GltfRoundTrip, ::testing::Values(false, true),
+                         [](const auto& info) { return info.param ? "quadruped" : "humanoid"; });
+
+TEST(GltfImport, WeldsSeamDuplicatesIntoAClosedSurface) {
+  // A glTF exporter splits vertices at UV seams: duplicate every vertex of
+  // one half of the faces; welding must restore the closed mesh.
+  const auto dir = testing::temp_dir("gltf_weld");
+  const auto model = small_model(false);
+  auto character = skinned(model, 0);
+  const int64_t V = character.mesh.num_vertices(), F = character.mesh.num_faces();
+  character.mesh.vertices = torch::cat({character.mesh.vertices, character.mesh.vertices});
+  character.weights = torch::cat({character.weights, character.weights});
+  auto faces = character.mesh.faces.clone();
+  faces.slice(0, 0, F / 2).add_(V);
+  character.mesh.faces = faces;
+  const auto path = (dir / "seams.glb").string();
+  write_skinned_gltf(path, character);
+  const auto imported = import_gltf(path);
+  EXPECT_EQ(imported.model.v_template.size(0), V);
+  EXPECT_TRUE(imported.clips.empty());
+  EXPECT_NE(imported.notes.front().find("welded"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(GltfImport, UnusableFilesNameTheFileAndTheProblem) {
+  const auto dir = testing::temp_dir("gltf_bad_import");
+  // No skin: a morph-target animation.
+  MeshAnimation animation;
+  animation.faces = torch::tensor({{0, 1, 2}, {0, 2, 3}, {0, 3, 1}, {1, 3, 2}}, torch::kInt64);
+  animation.frames = torch::tensor({{0.f, 0.f, 0.f}, {1.f, 0.f, 0.f}, {0.f, 1.f, 0.f}, {0.f, 0.f, 1.f}}).unsqueeze(0);
+  const auto unskinned = (dir / "unskinned.glb").string();
+  write_gltf_animation(unskinned, animation);
+  testing::expect_error([&] { import_gltf(unskinned); }, {"unskinned.glb", "no skinned mesh"});
+  // No closed part: one face removed.
+  const auto model = small_model(false);
+  auto open = skinned(model, 0);
+  open.mesh.faces = open.mesh.faces.slice(0, 1);
+  const auto holes = (dir / "holes.glb").string();
+  write_skinned_gltf(holes, open);
+  testing::expect_error([&] { import_gltf(holes); }, {"holes.glb", "closed"});
+  // Two roots: cut the link from the root joint to its first child.
+  const auto two_roots = (dir / "two_roots.gltf").string();
+  write_skinned_gltf(two_roots, skinned(model, 0));
+  auto json = nlohmann::json::parse(read_file(two_roots));
+  auto& children = json["nodes"][0]["children"];
+  const auto first_child = children[0].get<int>();
+  children.erase(children.begin());
+  json["scenes"][0]["nodes"].push_back(first_child);
+  write_file_atomically(two_roots, json.dump());
+  testing::expect_error([&] { import_gltf(two_roots); }, {"two_roots.gltf", "2 roots", "pelvis"});
+  testing::expect_error([&] { import_gltf((dir / "missing.glb").string()); }, {"missing.glb", "no such file"});
+  fs::remove_all(dir);
+}
+
+TEST(SkinnedGltf, PassesTheKhronosValidatorAndLoadsInThreeJs) {
+  const auto dir = testing::temp_dir("skinned_gltf_check");
+  const auto model = small_model(true);
+  const auto glb = (dir / "quadruped.glb").string(), log = (dir / "check.log").string();
+  write_skinned_gltf(glb, skinned(model, 4));
+  const std::string command = "node " + std::string(FSKIN_GLTF_CHECK) + " " + glb + " > " + log + " 2>&1";
+  const int status = std::system(command.c_str());
+  const std::string output = read_file(log);
+  ASSERT_EQ(status, 0) << output << "\n(scripts/setup.sh installs node and the checkers)";
+  EXPECT_NE(output.find("\"errors\":0,\"warnings\":0"), std::string::npos) << output;
+  EXPECT_NE(output.find("\"skinned\":true,\"bones\":33,\"clips\":1"), std::string::npos) << output;
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace fskin
