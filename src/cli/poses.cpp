@@ -4,10 +4,13 @@
 #include <torch/torch.h>
 
 #include <cstdio>
+#include <map>
 
 #include "cli/commands.h"
+#include "fskin/core/error.h"
 #include "fskin/body/body_model.h"
 #include "fskin/data/pose_generators.h"
+#include "fskin/import/motion_import.h"
 
 namespace fskin::cli {
 namespace {
@@ -22,7 +25,7 @@ JointRanges ranges_from(const std::string& path, const std::string& model_path, 
 
 void register_poses(CLI::App& app) {
   struct Options {
-    std::string model, out, ranges_from;
+    std::string model, out, ranges_from, input, name_map;
     int64_t sequences = 10, frames = 30, count = 50;
     uint64_t seed = 0;
   };
@@ -76,6 +79,27 @@ void register_poses(CLI::App& app) {
     std::printf("wrote %s: %lld out-of-distribution poses, each >= %.2f rad beyond the training "
                 "ranges\n",
                 opt->out.c_str(), static_cast<long long>(set.size()), smallest_excess);
+  });
+
+  auto* import = cmd->add_subcommand(
+      "import", "Motion capture for a model: BVH (retargeted by joint name) or AMASS/SMPL-style .npz");
+  import->add_option("FILE", opt->input, "motion file (.bvh or .npz with poses [T, 3J], trans [T, 3])")->required();
+  import->add_option("--model", opt->model, "model .npz the poses are for")->required();
+  import->add_option("--out", opt->out, "output pose file .npz")->required();
+  import->add_option("--map", opt->name_map, "BVH only: text file of 'bvh_joint=model_joint' lines");
+  import->callback([opt] {
+    const auto model = BodyModel::load(opt->model);
+    const auto skeleton = model.skeleton();
+    const bool bvh = opt->input.size() > 4 && opt->input.substr(opt->input.size() - 4) == ".bvh";
+    FSKIN_CHECK(bvh || opt->name_map.empty(), "fskin poses import: --map applies to BVH files only");
+    const auto motion = bvh ? import_bvh(opt->input, skeleton,
+                                         opt->name_map.empty() ? std::map<std::string, std::string>{}
+                                                               : read_name_map(opt->name_map))
+                            : import_amass(opt->input, skeleton);
+    motion.poses.save(opt->out);
+    std::printf("wrote %s: %lld poses at %.4g fps for %lld joints\n", opt->out.c_str(),
+                static_cast<long long>(motion.poses.size()), motion.fps, static_cast<long long>(skeleton.num_joints()));
+    for (const auto& note : motion.notes) std::printf("  %s\n", note.c_str());
   });
 }
 
