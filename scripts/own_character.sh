@@ -39,5 +39,4 @@ stage "evaluation"
 "$FSKIN" eval "$OUT/run" --split test-ood --quiet
 "$FSKIN" report "$OUT/run" --out "$OUT/report.md"
 "$FSKIN" export "$OUT/run" --clip "$OUT/ood_poses.npz" --resolution 128 --out "$OUT/avatar.glb"
-cat "$OUT/report.md"
 echo "own character: finished in $(( $(date +%s) - start )) s; outputs are in $OUT/"

@@ -271,7 +271,7 @@ void blend_skirt_weights(const Design& design, const std::vector<Vec3>& vertices
 void CharacterOptions::validate() const {
   FSKIN_CHECK(resolution >= 32 && resolution <= 512,
               "character: --resolution must be in [32, 512], got {}", resolution);
-  FSKIN_CHECK(height >= 0.2 && height <= 5.0, "character: --height must be in [0.2, 5] m, got {}",
+  FSKIN_CHECK(height >= 0.01 && height <= 100.0, "character: --height must be in [0.01, 100] m, got {}",
               height);
   const std::pair<const char*, double> proportions[] = {
       {"girth", girth},           {"shoulder-width", shoulder_width}, {"hip-width", hip_width},

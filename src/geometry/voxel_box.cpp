@@ -35,8 +35,8 @@ VoxelBox VoxelBox::around(const torch::Tensor& points, GridShape shape, double p
   return box;
 }
 
-VoxelBox VoxelBox::fit(const torch::Tensor& points, int64_t longest_voxels, double padding,
-                       int64_t min_voxels) {
+VoxelBox VoxelBox::fit(const torch::Tensor& points, int64_t longest_voxels, double padding, int64_t min_voxels,
+                       double min_padding_voxels) {
   expect_shape(points, {-1, 3}, "VoxelBox::fit: points");
   FSKIN_CHECK(points.size(0) > 0, "VoxelBox::fit: points is empty");
   expect_finite(points, "VoxelBox::fit: points");
@@ -53,7 +53,12 @@ VoxelBox VoxelBox::fit(const torch::Tensor& points, int64_t longest_voxels, doub
   }
   const double longest = 2 * std::max({half[0], half[1], half[2]});
   FSKIN_CHECK(longest > 0, "VoxelBox::fit: points span no volume");
-  for (double& h : half) h += padding * longest;
+  // A margin of k voxels: p = k * spacing with spacing = (longest + 2 p) / (n - 1),
+  // i.e. p = k * longest / (n - 1 - 2 k).
+  const double k = min_padding_voxels, cells = static_cast<double>(longest_voxels - 1);
+  FSKIN_CHECK(k >= 0 && 2 * k < cells, "VoxelBox::fit: a margin of {} voxels does not fit {} voxels", k, longest_voxels);
+  const double margin = std::max(padding * longest, k * longest / (cells - 2 * k));
+  for (double& h : half) h += margin;
   // Voxel centres span [-1, 1] (align-corners): n voxels cover 2 half / (n - 1).
   const double spacing = 2 * std::max({half[0], half[1], half[2]}) / static_cast<double>(longest_voxels - 1);
   std::array<int64_t, 3> counts{};

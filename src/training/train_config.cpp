@@ -21,7 +21,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     validate_every, validation_frames,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
     pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, canonical_sparsity_weight,
-    canonical_sparsity_points, grid_resolution, grid, part_hidden_dim, part_hidden_layers, start_bones,
+    canonical_sparsity_points, grid_resolution, grid_padding, grid, part_hidden_dim, part_hidden_layers, start_bones,
     max_iterations, snarf_roots, implicit_gradient, eval_chunk_points)
 
 TrainConfig TrainConfig::full() {
@@ -157,6 +157,7 @@ void TrainConfig::validate() const {
               "config: grid must be [depth, height, width], each >= 2");
   FSKIN_CHECK(grid_resolution == 0 || (grid_resolution >= 4 && grid_resolution <= 1024),
               "config: grid_resolution {} must be 0 (use grid) or from 4 to 1024", grid_resolution);
+  FSKIN_CHECK(grid_padding >= 0 && grid_padding <= 1, "config: grid_padding {} must be in [0, 1]", grid_padding);
   FSKIN_CHECK(max_iterations >= 0 && eval_chunk_points >= 1, "config: max_iterations and eval_chunk_points out of range");
   FSKIN_CHECK(start_bones == "default" || start_bones == "smpl-training" || start_bones == "all" ||
                   start_bones.rfind("automatic:", 0) == 0,
@@ -246,7 +247,7 @@ ModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& s
   o.skinning.input = occ.input;
   const auto extent = skeleton.extent.to(torch::kFloat64);
   o.box = config.grid_resolution > 0
-              ? VoxelBox::fit(extent, config.grid_resolution)
+              ? VoxelBox::fit(extent, config.grid_resolution, config.grid_padding)
               : VoxelBox::around(extent, GridShape{config.grid[0], config.grid[1], config.grid[2]});
   o.deformer = (model.method == Method::Snarf ? DeformerOptions::snarf() : DeformerOptions::fast_snarf())
                    .scaled(length_unit(extent, "training: the canonical body"));

@@ -29,9 +29,14 @@ TEST(VoxelBoxFit, VoxelCountsFollowTheExtentsAlongAnyAxis) {
   EXPECT_EQ(along_x.shape.height, along_z.shape.height);
   for (const auto& [box, corners] : {std::pair{along_x, box_corners(2.0, 0.5, 0.3)}, {along_z, box_corners(0.3, 0.5, 2.0)}})
     EXPECT_TRUE(box.contains(corners).all().item<bool>());
-  // Padding: 10 % of the longest side on every side, so a point 0.15 m
-  // beyond a 2 m body's thin side is still inside.
-  EXPECT_TRUE(along_x.contains(torch::tensor({{0.0, 0.0, 0.15 + 0.15}}, torch::kFloat64)).all().item<bool>());
+  // Padding: 5 % of the longest side on every side, so a point 0.09 m beyond
+  // a 2 m body's thin side is still inside, and one 0.11 m beyond is not.
+  EXPECT_TRUE(along_x.contains(torch::tensor({{0.0, 0.0, 0.15 + 0.09}}, torch::kFloat64)).all().item<bool>());
+  EXPECT_FALSE(along_x.contains(torch::tensor({{0.0, 0.0, 0.15 + 0.11}}, torch::kFloat64)).all().item<bool>());
+  // Coarse grids keep at least 1.25 voxels beyond the body.
+  const auto coarse = VoxelBox::fit(box_corners(2.0, 0.5, 0.3), 8);
+  const double spacing = 2 / coarse.scale[0] / (coarse.shape.width - 1);
+  EXPECT_NEAR(1 / coarse.scale[0] - 1.0, 1.25 * spacing, 1e-9);
   // Voxels are near cubes: spacing along every axis within one voxel of the longest's.
   for (const auto& box : {person, along_x, along_z}) {
     const double spacing_x = 2 / box.scale[0] / (box.shape.width - 1);

@@ -122,7 +122,7 @@ TEST(TrainConfig, DefaultsFollowTheSkeletonNotAPerson) {
   EXPECT_EQ(f.deformer.start_bones.count, 9);
   // The grid lies along z, 32 voxels along the 4 m, covering the whole body.
   EXPECT_EQ(f.box.shape.depth, 32);
-  EXPECT_LE(f.box.shape.width, 11);  // 0.6 m + 2 x 10 % padding of 4 m
+  EXPECT_LE(f.box.shape.width, 9);  // 0.6 m + 2 x 5 % padding of 4 m, near-cubic voxels
   EXPECT_TRUE(f.box.contains(extent).all().item<bool>());
   // Broyden's thresholds are lengths: for a 4 m body (4 / 1.7) x the papers'.
   EXPECT_NEAR(f.deformer.converge_sq, 1e-8 * std::pow(4.0 / 1.7, 2), 1e-15);

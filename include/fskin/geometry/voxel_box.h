@@ -31,13 +31,14 @@ struct VoxelBox {
 
   // A box for any character, whatever its proportions, size and orientation:
   // the bounding box of points [N, 3] grown on every side by `padding` times
-  // its longest side, with `longest_voxels` voxels along the longest side and,
-  // along the others, as many as keep the voxel spacing no coarser (at least
-  // `min_voxels`), so voxels are close to cubes. For a person in a T-pose
-  // this gives about the papers' layout; for a long animal it follows the
-  // animal along whichever axis it lies.
-  static VoxelBox fit(const torch::Tensor& points, int64_t longest_voxels, double padding = 0.1,
-                      int64_t min_voxels = 4);
+  // its longest side, but by at least `min_padding_voxels` voxels (coarse
+  // grids need cells beyond the surface), with `longest_voxels` voxels along
+  // the longest side and, along the others, as many as keep the voxel
+  // spacing no coarser (at least `min_voxels`), so voxels are close to cubes.
+  // For a person in a T-pose this gives about the papers' layout; for a long
+  // animal it follows the animal along whichever axis it lies.
+  static VoxelBox fit(const torch::Tensor& points, int64_t longest_voxels, double padding = 0.05,
+                      int64_t min_voxels = 4, double min_padding_voxels = 1.25);
 
   // Throws fskin::Error (prefixed with `what`) unless every size is >= 2 and
   // the scales are finite and positive.
