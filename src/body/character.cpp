@@ -297,17 +297,10 @@ BodyModelData make_character(const CharacterOptions& options) {
   data.parents = smpl_parents();
   data.joint_names = smpl_joint_names();
 
-  const auto rows = procedural::joint_regressor({design.joints.begin(), design.joints.end()}, vertices);
-  data.J_regressor = torch::zeros({kNumJoints, V}, torch::kFloat32);
-  auto regressor = data.J_regressor.accessor<float, 2>();
+  auto regressed = procedural::regress_joints({design.joints.begin(), design.joints.end()}, vertices);
+  data.J_regressor = regressed.J_regressor;
   std::array<Vec3, kNumJoints> rest;
-  for (int j = 0; j < kNumJoints; ++j) {
-    rest[j].setZero();
-    for (const auto& [v, w] : rows[j]) {
-      regressor[j][v] = static_cast<float>(w);
-      rest[j] += w * vertices[v];
-    }
-  }
+  std::copy(regressed.rest.begin(), regressed.rest.end(), rest.begin());
 
   const auto adjacency = procedural::mesh_adjacency(mesh);
   auto weights = skinning_weights(design, rest, vertices, scale);

@@ -252,15 +252,9 @@ BodyModelData make_quadruped(const QuadrupedOptions& options) {
   data.parents = quadruped_parents();
   data.joint_names = quadruped_joint_names();
 
-  const auto rows = procedural::joint_regressor(design.joints, vertices);
-  data.J_regressor = torch::zeros({kNumJoints, V}, torch::kFloat32);
-  auto regressor = data.J_regressor.accessor<float, 2>();
-  std::vector<Vec3> rest(kNumJoints, Vec3::Zero());
-  for (int j = 0; j < kNumJoints; ++j)
-    for (const auto& [v, w] : rows[j]) {
-      regressor[j][v] = static_cast<float>(w);
-      rest[j] += w * vertices[v];
-    }
+  auto regressed = procedural::regress_joints(design.joints, vertices);
+  data.J_regressor = regressed.J_regressor;
+  const auto& rest = regressed.rest;
 
   // Bones follow the regressed joints.
   std::vector<procedural::BoneCapsule> capsules;

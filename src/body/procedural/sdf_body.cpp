@@ -200,6 +200,19 @@ Adjacency mesh_adjacency(const Mesh& mesh) {
   return adjacency;
 }
 
+RegressedJoints regress_joints(const std::vector<Vec3>& joints, const std::vector<Vec3>& vertices) {
+  const auto rows = joint_regressor(joints, vertices);
+  const auto J = static_cast<int64_t>(joints.size()), V = static_cast<int64_t>(vertices.size());
+  RegressedJoints out{torch::zeros({J, V}, torch::kFloat32), std::vector<Vec3>(joints.size(), Vec3::Zero())};
+  auto regressor = out.J_regressor.accessor<float, 2>();
+  for (int64_t j = 0; j < J; ++j)
+    for (const auto& [v, w] : rows[j]) {
+      regressor[j][v] = static_cast<float>(w);
+      out.rest[j] += w * vertices[v];
+    }
+  return out;
+}
+
 std::vector<double> capsule_skinning_weights(const std::vector<BoneCapsule>& bones,
                                              const std::vector<Vec3>& vertices, double sigma) {
   const auto J = static_cast<int64_t>(bones.size());

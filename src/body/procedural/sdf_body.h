@@ -73,6 +73,14 @@ std::vector<Vec3> to_points(const torch::Tensor& tensor);
 std::vector<std::vector<std::pair<int64_t, double>>> joint_regressor(const std::vector<Vec3>& joints,
                                                                      const std::vector<Vec3>& vertices);
 
+// The joint regressor as a tensor [J, V] and the joints it regresses from the
+// vertices (the rest joints of the model).
+struct RegressedJoints {
+  torch::Tensor J_regressor;
+  std::vector<Vec3> rest;
+};
+RegressedJoints regress_joints(const std::vector<Vec3>& joints, const std::vector<Vec3>& vertices);
+
 // Vertex neighbours (compressed rows) from the faces.
 struct Adjacency {
   std::vector<int64_t> offsets, neighbours;
