@@ -16,6 +16,7 @@
 #include "fskin/export/skinned_gltf.h"
 #include "fskin/skeleton/rotations.h"
 #include "fskin/util/atomic_file.h"
+#include "io/gltf_file.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -95,6 +96,77 @@ TEST_P(GltfRoundTrip, GivesTheSameMeshWeightsSkeletonAndPoses) {
 
 INSTANTIATE_TEST_SUITE_P(BuiltInCharacters, GltfRoundTrip, ::testing::Values(false, true),
                          [](const auto& info) { return info.param ? "quadruped" : "humanoid"; });
+
+// DCC tools give joints rest rotations (bone frames along the bones): turn
+// every joint's frame by its own rotation Q_j (locals Q_p^T L_j Q_j, inverse
+// bind matrices Q_j^T IBM_j, animated rotations likewise). The skinning is
+// unchanged, so the import must be too.
+TEST(GltfImport, JointRestRotationsDoNotChangeTheImport) {
+  const auto dir = testing::temp_dir("gltf_rest_rotations");
+  const auto model = small_model(false);
+  const auto character = skinned(model, 4);
+  const auto plain = (dir / "plain.glb").string(), turned = (dir / "turned.glb").string();
+  write_skinned_gltf(plain, character);
+  auto gltf = gltf::load(plain);
+  const int64_t J = character.skeleton.num_joints();
+  torch::manual_seed(11);
+  const auto q = axis_angle_to_matrix(torch::randn({J, 3}, torch::kFloat64));  // [J, 3, 3]
+  const auto& parents = character.skeleton.parents;
+  const auto q_parent = [&](int64_t j) { return parents[j] < 0 ? torch::eye(3, torch::kFloat64) : q[parents[j]]; };
+  const auto to_quaternion = [](const torch::Tensor& r) {  // glTF (x, y, z, w)
+    const auto wxyz = matrix_to_quaternion(r);
+    return std::vector<double>{wxyz[1].item<double>(), wxyz[2].item<double>(), wxyz[3].item<double>(),
+                               wxyz[0].item<double>()};
+  };
+  for (int64_t j = 0; j < J; ++j) {
+    auto& node = gltf.nodes[j];
+    const auto t = torch::tensor(node.translation, torch::kFloat64);
+    const auto turned_t = torch::matmul(q_parent(j).t(), t);
+    node.translation = {turned_t[0].item<double>(), turned_t[1].item<double>(), turned_t[2].item<double>()};
+    node.rotation = to_quaternion(torch::matmul(q_parent(j).t(), q[j]));  // rest rotation: identity before
+  }
+  // Inverse bind matrices (column-major MAT4) and animated rotations, rewritten in place.
+  const auto write_floats = [&](int accessor, const std::vector<double>& values) {
+    const auto& a = gltf.accessors[accessor];
+    const auto& view = gltf.bufferViews[a.bufferView];
+    auto* out = reinterpret_cast<float*>(gltf.buffers[view.buffer].data.data() + view.byteOffset + a.byteOffset);
+    for (size_t i = 0; i < values.size(); ++i) out[i] = static_cast<float>(values[i]);
+  };
+  const int ibm = gltf.skins[0].inverseBindMatrices;
+  auto ibms = gltf::read_accessor(gltf, ibm, TINYGLTF_TYPE_MAT4, plain, "ibm");
+  for (int64_t j = 0; j < J; ++j) {
+    const auto m = torch::tensor(std::vector<double>(ibms.begin() + 16 * j, ibms.begin() + 16 * j + 16), torch::kFloat64)
+                       .view({4, 4})
+                       .t();  // row-major
+    auto qt = torch::eye(4, torch::kFloat64);
+    qt.narrow(0, 0, 3).narrow(1, 0, 3).copy_(q[j].t());
+    const auto turned_m = torch::matmul(qt, m).t().contiguous();
+    for (int k = 0; k < 16; ++k) ibms[16 * j + k] = turned_m.view({16})[k].item<double>();
+  }
+  write_floats(ibm, ibms);
+  for (const auto& channel : gltf.animations[0].channels) {
+    if (channel.target_path != "rotation") continue;
+    const int64_t j = channel.target_node;
+    const int output = gltf.animations[0].samplers[channel.sampler].output;
+    auto values = gltf::read_accessor(gltf, output, TINYGLTF_TYPE_VEC4, plain, "rotation");
+    for (size_t k = 0; k < values.size(); k += 4) {
+      const auto r = quaternion_to_matrix(torch::tensor({values[k + 3], values[k], values[k + 1], values[k + 2]}, torch::kFloat64));
+      const auto turned_q = to_quaternion(torch::matmul(torch::matmul(q_parent(j).t(), r), q[j]));
+      std::copy(turned_q.begin(), turned_q.end(), values.begin() + k);
+    }
+    write_floats(output, values);
+  }
+  gltf::save(turned, gltf, true);
+  const auto a = import_gltf(plain), b = import_gltf(turned);
+  EXPECT_LT((a.model.rest_joints - b.model.rest_joints).abs().max().item<float>(), 1e-5);
+  EXPECT_TRUE(torch::equal(a.model.weights, b.model.weights));
+  ASSERT_EQ(b.clips.size(), 1u);
+  const auto ra = axis_angle_to_matrix(a.clips[0].poses.poses), rb = axis_angle_to_matrix(b.clips[0].poses.poses);
+  EXPECT_LT((ra - rb).abs().max().item<float>(), 1e-4);
+  EXPECT_LT((a.clips[0].poses.trans - b.clips[0].poses.trans).abs().max().item<float>(), 1e-5);
+  EXPECT_LT(b.clips[0].max_joint_drift, 1e-4);
+  fs::remove_all(dir);
+}
 
 TEST(GltfImport, WeldsSeamDuplicatesIntoAClosedSurface) {
   // A glTF exporter splits vertices at UV seams: duplicate every vertex of
