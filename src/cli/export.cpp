@@ -15,6 +15,7 @@
 #include "fskin/inference/posed_meshing.h"
 #include "fskin/inference/rigged_avatar.h"
 #include "fskin/inference/trained_run.h"
+#include "io/gltf_file.h"
 
 namespace fskin::cli {
 
@@ -43,6 +44,7 @@ void register_export(CLI::App& app) {
   cmd->callback([opt] {
     FSKIN_CHECK(opt->run.empty() != opt->model.empty(), "fskin export: give a run directory or --model, not {}",
                 opt->run.empty() ? "neither" : "both");
+    gltf::is_binary_path(opt->out);  // a wrong extension fails before any work
     std::vector<std::string> names;
     if (!opt->joint_names.empty()) {
       std::ifstream in(opt->joint_names);

@@ -3,6 +3,8 @@
 #include <torch/torch.h>
 
 #include <algorithm>
+#include <cstdint>
+#include <vector>
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
@@ -59,10 +61,12 @@ void write_skinned_gltf(const std::string& path, const SkinnedCharacter& charact
   indices.count = static_cast<size_t>(faces.numel());
   primitive.indices = writer.add_accessor(indices);
   const auto [joint_ids, joint_weights] = top_influences(character.weights);
-  const auto ids16 = joint_ids.to(torch::kInt32).clamp(0, 65535).to(torch::kInt16).contiguous();
+  // glTF's JOINTS_0 as uint16 (validate() caps the joints at 65535).
+  const auto ids = joint_ids.contiguous();
+  std::vector<uint16_t> ids16(static_cast<size_t>(ids.numel()));
+  for (size_t i = 0; i < ids16.size(); ++i) ids16[i] = static_cast<uint16_t>(ids.data_ptr<int64_t>()[i]);
   tinygltf::Accessor joints;
-  joints.bufferView = writer.add_view(ids16.data_ptr<int16_t>(), ids16.numel() * sizeof(int16_t),
-                                      TINYGLTF_TARGET_ARRAY_BUFFER);
+  joints.bufferView = writer.add_view(ids16.data(), ids16.size() * sizeof(uint16_t), TINYGLTF_TARGET_ARRAY_BUFFER);
   joints.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
   joints.type = TINYGLTF_TYPE_VEC4;
   joints.count = static_cast<size_t>(V);
