@@ -13,6 +13,8 @@ PACKAGES=(
   libzip-dev zlib1g-dev
   libembree-dev
   libstb-dev libtinygltf-dev libtinyobjloader-dev
+  # FBX / Collada import; the test models are BSD-licensed rigs the tests read.
+  libassimp-dev assimp-testmodels
   libgtest-dev libgmock-dev libbenchmark-dev
 )
 

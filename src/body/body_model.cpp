@@ -133,7 +133,7 @@ torch::Tensor pose_features(const torch::Tensor& rotations) {
 }
 
 PosedBody BodyModel::pose(const torch::Tensor& axis_angle, const torch::Tensor& betas,
-                          const torch::Tensor& trans) const {
+                          const torch::Tensor& trans, const torch::Tensor& joint_translations) const {
   const int64_t J = num_joints();
   expect_shape(axis_angle, {-1, J, 3}, "BodyModel::pose: axis_angle");
   expect_finite(axis_angle, "BodyModel::pose: axis_angle");
@@ -157,7 +157,11 @@ PosedBody BodyModel::pose(const torch::Tensor& axis_angle, const torch::Tensor& 
     expect_shape(trans, {B, 3}, "BodyModel::pose: trans");
     expect_finite(trans, "BodyModel::pose: trans");
   }
-  const auto posed = forward_kinematics(data_.parents, joints, rotations, trans);
+  if (joint_translations.defined()) {
+    expect_shape(joint_translations, {B, J, 3}, "BodyModel::pose: joint_translations");
+    expect_finite(joint_translations, "BodyModel::pose: joint_translations");
+  }
+  const auto posed = forward_kinematics(data_.parents, joints, rotations, trans, joint_translations);
   return PosedBody{linear_blend_skinning(v_posed, data_.weights, posed.bone_transforms),
                    posed.joints, posed.bone_transforms};
 }

@@ -216,7 +216,7 @@ void register_animate(CLI::App& app) {
     if (!opt->pose.empty()) {
       const auto poses = PoseSet::load(opt->pose);
       poses.validate(opt->pose, body->num_joints(), body->data().joint_names);
-      animation.frames = body->pose(poses.poses, {}, poses.trans).vertices;
+      animation.frames = body->pose(poses.poses, {}, poses.trans, poses.joint_translations).vertices;
       animation.faces = body->data().faces;
     } else {
       std::vector<torch::Tensor> frames;

@@ -18,11 +18,21 @@
 #include "io/gltf_file.h"
 
 namespace fskin::cli {
+namespace {
+
+std::string influences_text(const SkinnedCharacter& c) {
+  const int64_t J = c.skeleton.num_joints();
+  const int64_t kept = c.influences == 0 ? J : std::min(c.influences, J);
+  return fmt::format("{} influence{}", kept, kept == 1 ? "" : "s");
+}
+
+}  // namespace
 
 void register_export(CLI::App& app) {
   struct Options {
     std::string run, model, out, clip, data, body_model, joint_names;
     double fps = 30;
+    int64_t influences = 4;
     MeshingFlags meshing;
   };
   auto opt = std::make_shared<Options>();
@@ -38,6 +48,11 @@ void register_export(CLI::App& app) {
   cmd->add_option("--out", opt->out, "output .glb or .gltf")->required();
   cmd->add_option("--clip", opt->clip, "pose file .npz to include as the animation");
   cmd->add_option("--fps", opt->fps, "frames per second of the animation")->check(CLI::PositiveNumber)->capture_default_str();
+  cmd->add_option("--influences", opt->influences,
+                  "weights per vertex: the largest, renormalised, in sets of four (JOINTS_n/WEIGHTS_n); engines and "
+                  "three.js read 4; 0 keeps every joint (the learned skinning exactly)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   cmd->add_option("--data", opt->data, "dataset directory (default: the run's)");
   cmd->add_option("--body-model", opt->body_model, "model .npz the poses refer to (default: the dataset's)");
   add_meshing_flags(*cmd, opt->meshing);
@@ -75,10 +90,11 @@ void register_export(CLI::App& app) {
         character.animation.clip_starts.clear();
       }
       rename(character);
+      character.influences = opt->influences;
       write_skinned_gltf(opt->out, character);
-      std::printf("wrote %s: %lld vertices, %lld joints, 4 influences per vertex, %lld poses\n", opt->out.c_str(),
+      std::printf("wrote %s: %lld vertices, %lld joints, %s per vertex, %lld poses\n", opt->out.c_str(),
                   static_cast<long long>(character.mesh.num_vertices()),
-                  static_cast<long long>(character.skeleton.num_joints()),
+                  static_cast<long long>(character.skeleton.num_joints()), influences_text(character).c_str(),
                   static_cast<long long>(character.animation.size()));
       return;
     }
@@ -90,9 +106,11 @@ void register_export(CLI::App& app) {
     const auto canonical = mesh_canonical(*run.model, run.skeleton, run.canonical_pose, meshing_options(opt->meshing, run.config));
     auto avatar = rigged_avatar(*run.model, run.config.method, run.skeleton, canonical.mesh, bones, opt->fps);
     rename(avatar);
+    avatar.influences = opt->influences;
     write_skinned_gltf(opt->out, avatar);
-    std::printf("wrote %s: %lld vertices, %lld joints, 4 influences per vertex%s\n", opt->out.c_str(),
+    std::printf("wrote %s: %lld vertices, %lld joints, %s per vertex%s\n", opt->out.c_str(),
                 static_cast<long long>(avatar.mesh.num_vertices()), static_cast<long long>(avatar.skeleton.num_joints()),
+                influences_text(avatar).c_str(),
                 avatar.animation.size() > 0
                     ? fmt::format(", {} poses at {} fps", avatar.animation.size(), opt->fps).c_str()
                     : "");

@@ -1,9 +1,9 @@
-// fskin import: a rigged character from a glTF 2.0 file as an SMPL-format
-// model .npz (and its animation clips as one pose file).
+// fskin import: a rigged character (glTF 2.0, FBX, Collada, ...) as an
+// SMPL-format model .npz (and its animation clips as one pose file).
 #include <cstdio>
 
 #include "cli/commands.h"
-#include "fskin/import/gltf_import.h"
+#include "fskin/import/imported_character.h"
 #include "fskin/core/error.h"
 
 namespace fskin::cli {
@@ -11,19 +11,19 @@ namespace fskin::cli {
 void register_import(CLI::App& app) {
   struct Options {
     std::string input, out, clips;
-    GltfImportOptions import;
+    ImportOptions import;
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = app.add_subcommand(
-      "import", "Import a rigged character (glTF 2.0 .glb/.gltf): skinned mesh, skeleton and animation clips");
-  cmd->add_option("CHARACTER", opt->input, "rigged character file (.glb or .gltf)")->required();
+      "import", "Import a rigged character (glTF 2.0, FBX, Collada, ...): skinned mesh, skeleton and animation clips");
+  cmd->add_option("CHARACTER", opt->input, "rigged character file: .glb/.gltf, .fbx, .dae or another format assimp reads")->required();
   cmd->add_option("--out", opt->out, "output model .npz")->required();
   cmd->add_option("--clips", opt->clips,
                   "also write every animation clip, back to back with its name, as one pose file .npz");
   cmd->add_flag("--keep-open-parts", opt->import.keep_open_parts,
                 "keep mesh parts that are not closed surfaces (training needs closed ones)");
   cmd->callback([opt] {
-    const auto imported = import_gltf(opt->input, opt->import);
+    const auto imported = import_character(opt->input, opt->import);
     const BodyModel model(imported.model, opt->input);
     model.save(opt->out);
     std::printf("wrote %s: %lld vertices, %lld faces, %lld joints (root '%s')\n", opt->out.c_str(),

@@ -48,7 +48,7 @@ void register_mesh(CLI::App& app) {
       FSKIN_CHECK(opt->index >= 0 && opt->index < poses.size(), "{}: pose index {} out of range [0, {})", opt->pose,
                   opt->index, poses.size());
       const int64_t k = opt->index;
-      pose = {poses.poses.slice(0, k, k + 1), poses.trans.slice(0, k, k + 1), poses.joint_names};
+      pose = poses.slice(k, k + 1);
     }
     auto run = TrainedRun::load(opt->run, opt->data, CheckpointChoice::parse(opt->checkpoint));
     const auto options = meshing_options(opt->meshing, run.config);

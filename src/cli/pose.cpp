@@ -38,8 +38,8 @@ void register_pose(CLI::App& app) {
       first = opt->frame;
       last = first + 1;
     }
-    const auto posed = model.pose(poses.poses.slice(0, first, last), {},
-                                  poses.trans.slice(0, first, last));
+    const auto chosen = poses.slice(first, last);
+    const auto posed = model.pose(chosen.poses, {}, chosen.trans, chosen.joint_translations);
     const std::filesystem::path out(opt->out);
     for (int64_t i = 0; i < last - first; ++i) {
       std::string path = opt->out;

@@ -211,7 +211,9 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
     auto start = Clock::now();
     const auto pose = item.poses->poses[item.pose_index];
     const auto trans = item.poses->trans[item.pose_index];
-    const auto posed = model.pose(pose.unsqueeze(0), {}, trans.unsqueeze(0));
+    const auto& moved = item.poses->joint_translations;
+    const auto posed = model.pose(pose.unsqueeze(0), {}, trans.unsqueeze(0),
+                                  moved.defined() ? moved[item.pose_index].unsqueeze(0) : torch::Tensor());
     frame.bone_transforms_rest = posed.bone_transforms[0].contiguous();
     frame.bone_transforms =
         relative_bone_transforms(posed.bone_transforms, canonical_bones)[0].contiguous();

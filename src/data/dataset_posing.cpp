@@ -51,7 +51,8 @@ DatasetPosing DatasetPosing::load(const std::string& data_dir, const std::string
 
 torch::Tensor DatasetPosing::bone_transforms(const PoseSet& poses, const std::string& context) const {
   poses.validate(context, model_.num_joints(), model_.data().joint_names);
-  const auto posed = model_.pose(poses.poses.to(torch::kFloat32), {}, poses.trans.to(torch::kFloat32));
+  const auto posed = model_.pose(poses.poses.to(torch::kFloat32), {}, poses.trans.to(torch::kFloat32),
+                                 poses.joint_translations);
   return relative_bone_transforms(posed.bone_transforms, canonical_bones_).to(torch::kFloat32).contiguous();
 }
 

@@ -19,6 +19,11 @@ PoseSet PoseSet::load(const std::string& path) {
     set.poses = set.poses.reshape({set.poses.size(0), -1, 3});
   if (npz.contains("trans")) set.trans = npz.tensor("trans").to(torch::kFloat32);
   else if (set.poses.dim() == 3) set.trans = torch::zeros({set.poses.size(0), 3});
+  if (npz.contains("joint_translations")) {
+    set.joint_translations = npz.tensor("joint_translations");
+    FSKIN_CHECK(set.joint_translations.is_floating_point(), "{}: 'joint_translations' must be floating point", path);
+    set.joint_translations = set.joint_translations.to(torch::kFloat32);
+  }
   if (npz.contains("joint_names")) set.joint_names = npz.strings("joint_names");
   if (npz.contains("clip_names")) {
     set.clip_names = npz.strings("clip_names");
@@ -30,11 +35,23 @@ PoseSet PoseSet::load(const std::string& path) {
   return set;
 }
 
+PoseSet PoseSet::slice(int64_t first, int64_t last) const {
+  FSKIN_CHECK(first >= 0 && first < last && last <= size(), "PoseSet::slice: [{}, {}) of {} poses", first, last,
+              size());
+  PoseSet out;
+  out.poses = poses.slice(0, first, last);
+  out.trans = trans.slice(0, first, last);
+  if (joint_translations.defined()) out.joint_translations = joint_translations.slice(0, first, last);
+  out.joint_names = joint_names;
+  return out;
+}
+
 void PoseSet::save(const std::string& path) const {
   validate(path);
   io::NpzWriter npz;
   npz.add("poses", poses.contiguous());
   npz.add("trans", trans.contiguous());
+  if (joint_translations.defined()) npz.add("joint_translations", joint_translations.contiguous());
   if (!joint_names.empty()) npz.add_strings("joint_names", joint_names);
   if (!clip_names.empty()) {
     npz.add_strings("clip_names", clip_names);
@@ -50,6 +67,10 @@ void PoseSet::validate(const std::string& context, int64_t expected_joints,
   expect_finite(poses, context + ": poses");
   expect_shape(trans, {poses.size(0), 3}, context + ": trans");
   expect_finite(trans, context + ": trans");
+  if (joint_translations.defined()) {
+    expect_shape(joint_translations, {poses.size(0), poses.size(1), 3}, context + ": joint_translations");
+    expect_finite(joint_translations, context + ": joint_translations");
+  }
   if (!joint_names.empty())
     FSKIN_CHECK(static_cast<int64_t>(joint_names.size()) == poses.size(1),
                 "{}: {} joint names for {} joints", context, joint_names.size(), poses.size(1));

@@ -22,6 +22,7 @@ void SkinnedCharacter::validate(const std::string& context) const {
               skeleton.num_joints());
   if (animation.size() > 0) animation.validate(context + ": animation", skeleton.num_joints());
   FSKIN_CHECK(fps > 0, "{}: fps {} must be positive", context, fps);
+  FSKIN_CHECK(influences >= 0, "{}: influences {} must be >= 0 (0: every joint)", context, influences);
 }
 
 std::pair<torch::Tensor, torch::Tensor> top_influences(const torch::Tensor& weights, int64_t k) {
@@ -47,7 +48,7 @@ void write_skinned_gltf(const std::string& path, const SkinnedCharacter& charact
   model.asset.generator = "fskin";
   gltf::BufferWriter writer(model);
 
-  // Mesh: positions, uint32 indices, top-4 joints (uint16) and weights.
+  // Mesh: positions, uint32 indices, the largest influences' joints (uint16) and weights.
   tinygltf::Primitive primitive;
   primitive.mode = TINYGLTF_MODE_TRIANGLES;
   primitive.attributes["POSITION"] =
@@ -60,22 +61,33 @@ void write_skinned_gltf(const std::string& path, const SkinnedCharacter& charact
   indices.type = TINYGLTF_TYPE_SCALAR;
   indices.count = static_cast<size_t>(faces.numel());
   primitive.indices = writer.add_accessor(indices);
-  const auto [joint_ids, joint_weights] = top_influences(character.weights);
-  // glTF's JOINTS_0 as uint16 (validate() caps the joints at 65535).
-  const auto ids = joint_ids.contiguous();
-  std::vector<uint16_t> ids16(static_cast<size_t>(ids.numel()));
-  for (size_t i = 0; i < ids16.size(); ++i) ids16[i] = static_cast<uint16_t>(ids.data_ptr<int64_t>()[i]);
-  tinygltf::Accessor joints;
-  joints.bufferView = writer.add_view(ids16.data(), ids16.size() * sizeof(uint16_t), TINYGLTF_TARGET_ARRAY_BUFFER);
-  joints.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
-  joints.type = TINYGLTF_TYPE_VEC4;
-  joints.count = static_cast<size_t>(V);
-  primitive.attributes["JOINTS_0"] = writer.add_accessor(joints);
-  const int weights_accessor = writer.add_floats(joint_weights, TINYGLTF_TYPE_VEC4, TINYGLTF_TARGET_ARRAY_BUFFER);
-  // Only positions need min/max; keep the weights' accessor lean.
-  model.accessors[weights_accessor].minValues.clear();
-  model.accessors[weights_accessor].maxValues.clear();
-  primitive.attributes["WEIGHTS_0"] = weights_accessor;
+  const int64_t kept = character.influences == 0 ? J : std::min(character.influences, J);
+  const int64_t sets = (kept + 3) / 4;
+  auto [joint_ids, joint_weights] = top_influences(character.weights, kept);
+  if (4 * sets > kept) {  // pad the last set with zero weights
+    joint_weights = torch::cat({joint_weights, torch::zeros({V, 4 * sets - kept})}, 1);
+    joint_ids = torch::cat({joint_ids, torch::zeros({V, 4 * sets - kept}, torch::kInt64)}, 1);
+  }
+  // glTF wants joint 0 wherever the weight is 0 (ACCESSOR_JOINTS_USED_ZERO_WEIGHT).
+  joint_ids = torch::where(joint_weights > 0, joint_ids, torch::zeros_like(joint_ids));
+  for (int64_t set = 0; set < sets; ++set) {
+    // JOINTS_n as uint16 (validate() caps the joints at 65535).
+    const auto ids = joint_ids.narrow(1, 4 * set, 4).contiguous();
+    std::vector<uint16_t> ids16(static_cast<size_t>(ids.numel()));
+    for (size_t i = 0; i < ids16.size(); ++i) ids16[i] = static_cast<uint16_t>(ids.data_ptr<int64_t>()[i]);
+    tinygltf::Accessor joints;
+    joints.bufferView = writer.add_view(ids16.data(), ids16.size() * sizeof(uint16_t), TINYGLTF_TARGET_ARRAY_BUFFER);
+    joints.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    joints.type = TINYGLTF_TYPE_VEC4;
+    joints.count = static_cast<size_t>(V);
+    primitive.attributes["JOINTS_" + std::to_string(set)] = writer.add_accessor(joints);
+    const int weights_accessor = writer.add_floats(joint_weights.narrow(1, 4 * set, 4).contiguous(), TINYGLTF_TYPE_VEC4,
+                                                   TINYGLTF_TARGET_ARRAY_BUFFER);
+    // Only positions need min/max; keep the weights' accessors lean.
+    model.accessors[weights_accessor].minValues.clear();
+    model.accessors[weights_accessor].maxValues.clear();
+    primitive.attributes["WEIGHTS_" + std::to_string(set)] = weights_accessor;
+  }
   tinygltf::Material material;
   material.name = "skin";
   material.pbrMetallicRoughness.baseColorFactor = {0.8, 0.8, 0.8, 1.0};
@@ -130,30 +142,36 @@ void write_skinned_gltf(const std::string& path, const SkinnedCharacter& charact
     // fskin quaternions are (w, x, y, z); glTF's are (x, y, z, w).
     const auto q = matrix_to_quaternion(axis_angle_to_matrix(character.animation.poses.to(torch::kFloat64)));
     const auto xyzw = torch::cat({q.narrow(-1, 1, 3), q.narrow(-1, 0, 1)}, -1);  // [T, J, 4]
-    for (int64_t j = 0; j < J; ++j) {
+    // One LINEAR channel: values [T, components] for node j's `target` path.
+    const auto add_channel = [&](const torch::Tensor& values, int type, int64_t j, const char* target) {
       tinygltf::AnimationSampler sampler;
       sampler.input = input;
       sampler.interpolation = "LINEAR";
-      sampler.output = writer.add_floats(xyzw.select(1, j).contiguous(), TINYGLTF_TYPE_VEC4, 0);
+      sampler.output = writer.add_floats(values.contiguous(), type, 0);
       model.accessors[sampler.output].minValues.clear();
       model.accessors[sampler.output].maxValues.clear();
       clip.samplers.push_back(sampler);
       tinygltf::AnimationChannel channel;
       channel.sampler = static_cast<int>(clip.samplers.size()) - 1;
       channel.target_node = static_cast<int>(j);
-      channel.target_path = "rotation";
+      channel.target_path = target;
       clip.channels.push_back(channel);
+    };
+    for (int64_t j = 0; j < J; ++j) add_channel(xyzw.select(1, j), TINYGLTF_TYPE_VEC4, j, "rotation");
+    const auto& parents = character.skeleton.parents;
+    const auto& moved = character.animation.joint_translations;
+    for (int64_t j = 0; j < J; ++j) {
+      torch::Tensor translation;  // [T, 3] the node's local translation per pose
+      if (parents[j] < 0) {
+        translation = character.animation.trans.to(torch::kFloat64) + rest[j];
+        if (moved.defined()) translation = translation + moved.select(1, j).to(torch::kFloat64);
+      } else if (moved.defined()) {
+        translation = moved.select(1, j).to(torch::kFloat64) + (rest[j] - rest[parents[j]]);
+      } else {
+        continue;
+      }
+      add_channel(translation, TINYGLTF_TYPE_VEC3, j, "translation");
     }
-    tinygltf::AnimationSampler root;
-    root.input = input;
-    root.interpolation = "LINEAR";
-    root.output = writer.add_floats(character.animation.trans.to(torch::kFloat64) + rest[0], TINYGLTF_TYPE_VEC3, 0);
-    clip.samplers.push_back(root);
-    tinygltf::AnimationChannel channel;
-    channel.sampler = static_cast<int>(clip.samplers.size()) - 1;
-    channel.target_node = 0;
-    channel.target_path = "translation";
-    clip.channels.push_back(channel);
     model.animations.push_back(clip);
   }
   gltf::save(path, model, binary);

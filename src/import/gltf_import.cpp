@@ -11,9 +11,7 @@
 #include <tuple>
 
 #include "fskin/core/error.h"
-#include "fskin/geometry/character_size.h"
-#include "fskin/geometry/mesh_topology.h"
-#include "fskin/skeleton/pose_from_bones.h"
+#include "import/rig_assembly.h"
 #include "io/gltf_file.h"
 
 namespace fskin {
@@ -114,7 +112,7 @@ void apply(Trs& trs, const Channel& c, const std::vector<double>& v) {
 
 }  // namespace
 
-ImportedCharacter import_gltf(const std::string& path, const GltfImportOptions& options) {
+ImportedCharacter import_gltf(const std::string& path, const ImportOptions& options) {
   const tinygltf::Model model = gltf::load(path);
   ImportedCharacter out;
   const int num_nodes = static_cast<int>(model.nodes.size());
@@ -125,6 +123,11 @@ ImportedCharacter import_gltf(const std::string& path, const GltfImportOptions& 
                   "{}: node {} has an invalid or second parent", path, child);
       parent[child] = n;
     }
+  for (int n = 0; n < num_nodes; ++n) {
+    int steps = 0;
+    for (int a = parent[n]; a >= 0; a = parent[a])
+      FSKIN_CHECK(++steps <= num_nodes, "{}: the node tree has a cycle through node {}", path, n);
+  }
 
   // The skin of the first skinned mesh node; meshes with other skins are dropped.
   std::vector<int> skinned;
@@ -151,64 +154,35 @@ ImportedCharacter import_gltf(const std::string& path, const GltfImportOptions& 
   FSKIN_CHECK(J >= 1, "{}: skin {} has no joints", path, skin_index);
 
   // Joint tree: a joint's parent is its nearest ancestor node that is a joint.
+  import_detail::SourceJoints joints;
   std::map<int, int> slot_of;  // node -> index in skin.joints
-  for (int64_t i = 0; i < J; ++i) slot_of[skin.joints[i]] = static_cast<int>(i);
-  std::vector<int> joint_parent(J, -1);
-  std::vector<std::string> roots;
   for (int64_t i = 0; i < J; ++i) {
-    for (int a = parent[skin.joints[i]]; a >= 0; a = parent[a])
-      if (slot_of.count(a)) {
-        joint_parent[i] = slot_of[a];
-        break;
-      }
-    if (joint_parent[i] < 0) roots.push_back(node_name(model, skin.joints[i]));
+    const int node = skin.joints[i];
+    FSKIN_CHECK(node >= 0 && node < num_nodes, "{}: skin {} refers to node {} of {}", path, skin_index, node, num_nodes);
+    slot_of[node] = static_cast<int>(i);
   }
-  FSKIN_CHECK(roots.size() == 1, "{}: the skeleton has {} roots ({}{}); fskin needs one root joint", path,
-              roots.size(), fmt::format("{}", fmt::join(roots.begin(), roots.begin() + std::min<size_t>(roots.size(), 5), ", ")),
-              roots.size() > 5 ? ", ..." : "");
-  // Parents first, otherwise in the skin's order: a slot is taken once its
-  // parent has been (the skin's own order when it already is topological).
-  std::vector<int> order;  // fskin index -> skin slot
-  std::vector<int64_t> fskin_index(J, -1);
-  while (static_cast<int64_t>(order.size()) < J) {
-    for (int64_t i = 0; i < J; ++i)
-      if (fskin_index[i] < 0 && (joint_parent[i] < 0 || fskin_index[joint_parent[i]] >= 0)) {
-        fskin_index[i] = static_cast<int64_t>(order.size());
-        order.push_back(static_cast<int>(i));
-      }
+  for (int64_t i = 0; i < J; ++i) {
+    joints.names.push_back(node_name(model, skin.joints[i]));
+    int p = -1;
+    for (int a = parent[skin.joints[i]]; a >= 0 && p < 0; a = parent[a])
+      if (slot_of.count(a)) p = slot_of[a];
+    joints.parent.push_back(p);
   }
-  auto& data = out.model;
-  for (int64_t j = 0; j < J; ++j) {
-    const int slot = order[j];
-    data.joint_names.push_back(node_name(model, skin.joints[slot]));
-    data.parents.push_back(joint_parent[slot] < 0 ? -1 : fskin_index[joint_parent[slot]]);
-  }
-  {
-    std::set<std::string> unique(data.joint_names.begin(), data.joint_names.end());
-    FSKIN_CHECK(unique.size() == data.joint_names.size(), "{}: two joints share a name; fskin needs unique names", path);
-  }
-
-  // Inverse bind matrices (identity when absent, glTF's default) and rest joints.
-  std::vector<Matrix4> inverse_bind(J, Matrix4::Identity());
+  // Inverse bind matrices: identity when absent, glTF's default.
+  joints.inverse_bind.assign(J, Matrix4::Identity());
   if (skin.inverseBindMatrices >= 0) {
     const auto m = gltf::read_accessor(model, skin.inverseBindMatrices, TINYGLTF_TYPE_MAT4, path, "inverseBindMatrices");
     FSKIN_CHECK(static_cast<int64_t>(m.size()) == 16 * J, "{}: {} inverse bind matrices for {} joints", path,
                 m.size() / 16, J);
     for (int64_t i = 0; i < J; ++i)
       for (int c = 0; c < 4; ++c)
-        for (int r = 0; r < 4; ++r) inverse_bind[i](r, c) = m[16 * i + 4 * c + r];
+        for (int r = 0; r < 4; ++r) joints.inverse_bind[i](r, c) = m[16 * i + 4 * c + r];
   }
-  data.rest_joints = torch::zeros({J, 3});
-  for (int64_t j = 0; j < J; ++j) {
-    const Matrix4 bind = inverse_bind[order[j]].inverse();
-    FSKIN_CHECK(bind.allFinite(), "{}: the inverse bind matrix of joint '{}' is singular", path, data.joint_names[j]);
-    for (int a = 0; a < 3; ++a) data.rest_joints[j][a] = bind(a, 3);
-  }
+  auto& data = out.model;
+  const auto order = import_detail::order_joints(path, joints, data);
 
-  // Mesh: merge the skinned triangle primitives, weld vertices by position.
-  std::vector<double> positions, weights;  // [V * 3], [V * J]
-  std::vector<int64_t> faces;
-  int64_t merged = 0;
+  // Mesh: the skinned triangle primitives.
+  import_detail::SkinnedSoup soup;
   for (int n : skinned) {
     const auto& mesh = model.meshes[model.nodes[n].mesh];
     for (const auto& primitive : mesh.primitives) {
@@ -227,12 +201,13 @@ ImportedCharacter import_gltf(const std::string& path, const GltfImportOptions& 
         continue;
       }
       const auto p = gltf::read_accessor(model, attribute("POSITION"), TINYGLTF_TYPE_VEC3, path, what + " POSITION");
-      const int64_t base = static_cast<int64_t>(positions.size() / 3), count = static_cast<int64_t>(p.size() / 3);
-      positions.insert(positions.end(), p.begin(), p.end());
-      weights.resize(weights.size() + count * J, 0.0);
-      for (int set = 0; set < 2; ++set) {
-        const int ja = attribute(set == 0 ? "JOINTS_0" : "JOINTS_1"), wa = attribute(set == 0 ? "WEIGHTS_0" : "WEIGHTS_1");
-        if (ja < 0 || wa < 0) continue;
+      const int64_t base = static_cast<int64_t>(soup.positions.size() / 3), count = static_cast<int64_t>(p.size() / 3);
+      soup.positions.insert(soup.positions.end(), p.begin(), p.end());
+      soup.weights.resize(soup.weights.size() + count * J, 0.0);
+      for (int set = 0;; ++set) {
+        const int ja = attribute(("JOINTS_" + std::to_string(set)).c_str());
+        const int wa = attribute(("WEIGHTS_" + std::to_string(set)).c_str());
+        if (ja < 0 || wa < 0) break;
         const auto ids = gltf::read_accessor(model, ja, TINYGLTF_TYPE_VEC4, path, what + " JOINTS");
         const auto ws = gltf::read_accessor(model, wa, TINYGLTF_TYPE_VEC4, path, what + " WEIGHTS");
         FSKIN_CHECK(ids.size() == 4 * static_cast<size_t>(count) && ws.size() == ids.size(),
@@ -245,7 +220,7 @@ ImportedCharacter import_gltf(const std::string& path, const GltfImportOptions& 
             FSKIN_CHECK(slot >= 0 && slot < J, "{}: {} vertex {} refers to joint {} of a {}-joint skin", path, what, v,
                         slot, J);
             FSKIN_CHECK(w > 0 && std::isfinite(w), "{}: {} vertex {} has weight {}", path, what, v, w);
-            weights[(base + v) * J + fskin_index[slot]] += w;
+            soup.weights[(base + v) * J + order.index_of_slot[slot]] += w;
           }
       }
       if (primitive.indices >= 0) {
@@ -253,80 +228,15 @@ ImportedCharacter import_gltf(const std::string& path, const GltfImportOptions& 
         FSKIN_CHECK(idx.size() % 3 == 0, "{}: {} has {} indices, not a multiple of 3", path, what, idx.size());
         for (double i : idx) {
           FSKIN_CHECK(i >= 0 && i < count, "{}: {} index {} out of range for {} vertices", path, what, i, count);
-          faces.push_back(base + static_cast<int64_t>(i));
+          soup.faces.push_back(base + static_cast<int64_t>(i));
         }
       } else {
-        for (int64_t i = 0; i < count; ++i) faces.push_back(base + i);
+        for (int64_t i = 0; i < count; ++i) soup.faces.push_back(base + i);
       }
-      ++merged;
+      ++soup.parts;
     }
   }
-  FSKIN_CHECK(merged > 0 && !faces.empty(), "{}: the skinned meshes have no skinned triangles", path);
-  const int64_t V_in = static_cast<int64_t>(positions.size() / 3);
-  const auto all = torch::from_blob(positions.data(), {V_in, 3}, torch::kFloat64).clone();
-  const double tolerance = 1e-6 * character_size(all, path.c_str());
-  std::map<std::tuple<int64_t, int64_t, int64_t>, int64_t> welded_index;
-  std::vector<int64_t> remap(V_in);
-  std::vector<int64_t> keep;  // first input vertex of each welded vertex
-  for (int64_t v = 0; v < V_in; ++v) {
-    const auto key = std::make_tuple(std::llround(positions[3 * v] / tolerance), std::llround(positions[3 * v + 1] / tolerance),
-                                     std::llround(positions[3 * v + 2] / tolerance));
-    const auto [it, inserted] = welded_index.emplace(key, static_cast<int64_t>(keep.size()));
-    if (inserted) keep.push_back(v);
-    remap[v] = it->second;
-  }
-  std::vector<int64_t> welded_faces;
-  int64_t degenerate = 0;
-  for (size_t f = 0; f < faces.size(); f += 3) {
-    const int64_t a = remap[faces[f]], b = remap[faces[f + 1]], c = remap[faces[f + 2]];
-    if (a == b || b == c || a == c) {
-      ++degenerate;
-      continue;
-    }
-    welded_faces.insert(welded_faces.end(), {a, b, c});
-  }
-  out.notes.push_back(fmt::format("merged {} skinned primitive(s): {} vertices welded to {} by position{}", merged, V_in,
-                                  keep.size(), degenerate ? fmt::format(", {} degenerate faces dropped", degenerate) : ""));
-  const auto keep_tensor = torch::tensor(keep, torch::kInt64);
-  Mesh mesh{all.index_select(0, keep_tensor).to(torch::kFloat32),
-            torch::tensor(welded_faces, torch::kInt64).view({-1, 3}), {}};
-  auto vertex_weights = torch::from_blob(weights.data(), {V_in, J}, torch::kFloat64).index_select(0, keep_tensor);
-
-  // Keep the closed components.
-  const auto components = connected_components(mesh);
-  std::vector<torch::Tensor> kept_faces;
-  int64_t dropped = 0;
-  for (int64_t c = 0; c < components.count; ++c) {
-    const auto part = mesh.faces.index({components.face_labels == c});
-    if (options.keep_open_parts || analyze_topology(Mesh{mesh.vertices, part, {}}).is_closed_manifold()) {
-      kept_faces.push_back(part);
-    } else {
-      ++dropped;
-    }
-  }
-  FSKIN_CHECK(!kept_faces.empty(),
-              "{}: none of the {} connected part(s) of the skinned mesh is closed (every one has holes or "
-              "non-manifold edges); fskin learns occupancy and needs a closed surface",
-              path, components.count);
-  if (dropped > 0)
-    out.notes.push_back(fmt::format("dropped {} of {} connected parts that are not closed surfaces", dropped, components.count));
-  out.notes.push_back(options.keep_open_parts
-                          ? fmt::format("kept all {} part(s), closed or not", kept_faces.size())
-                          : fmt::format("the result is {} closed part(s)", kept_faces.size()));
-  const auto used_faces = torch::cat(kept_faces);
-  // Compact: only the vertices the kept faces use, in order.
-  auto used = torch::zeros({mesh.num_vertices()}, torch::kBool);
-  used.index_put_({used_faces.flatten()}, true);
-  const auto used_ids = used.nonzero().flatten();
-  auto new_index = torch::full({mesh.num_vertices()}, -1, torch::kInt64);
-  new_index.index_put_({used_ids}, torch::arange(used_ids.size(0), torch::kInt64));
-  data.v_template = mesh.vertices.index_select(0, used_ids).contiguous();
-  data.faces = new_index.index_select(0, used_faces.flatten()).view({-1, 3}).contiguous();
-  vertex_weights = vertex_weights.index_select(0, used_ids);
-  const auto totals = vertex_weights.sum(1);
-  const int64_t unweighted = (totals <= 0).sum().item<int64_t>();
-  FSKIN_CHECK(unweighted == 0, "{}: {} vertices of the skinned mesh have no joint weights", path, unweighted);
-  data.weights = (vertex_weights / totals.unsqueeze(1)).to(torch::kFloat32).contiguous();
+  import_detail::assemble_mesh(path, soup, options, data, out.notes);
 
   // Clips: skinning matrices S_j(t) = P_j(t) IBM_j at the keyframe times.
   std::vector<Trs> rest(num_nodes);
@@ -338,6 +248,8 @@ ImportedCharacter import_gltf(const std::string& path, const GltfImportOptions& 
     std::set<double> time_set;
     for (const auto& ch : animation.channels) {
       if (ch.target_node < 0 || ch.target_path == "weights") continue;
+      FSKIN_CHECK(ch.target_node < num_nodes, "{}: animation '{}' targets node {} of {}", path, name, ch.target_node,
+                  num_nodes);
       FSKIN_CHECK(ch.sampler >= 0 && ch.sampler < static_cast<int>(animation.samplers.size()),
                   "{}: animation '{}' has a channel without a sampler", path, name);
       const auto& sampler = animation.samplers[ch.sampler];
@@ -356,61 +268,22 @@ ImportedCharacter import_gltf(const std::string& path, const GltfImportOptions& 
       channels.push_back(std::move(c));
     }
     if (channels.empty()) continue;
-    std::vector<double> times(time_set.begin(), time_set.end());
-    const auto T = static_cast<int64_t>(times.size());
-    auto bones = torch::zeros({T, J, 4, 4}, torch::kFloat64);
-    auto bones_a = bones.accessor<double, 4>();
-    for (int64_t t = 0; t < T; ++t) {
+    const std::vector<double> times(time_set.begin(), time_set.end());
+    const auto skinning_at = [&](size_t t) {
       auto locals = rest;
       for (const auto& c : channels) apply(locals[c.node], c, sample(c, times[t]));
       const auto global = global_transforms(locals, parent);
+      std::vector<Matrix4> skinning(J);
       for (int64_t j = 0; j < J; ++j) {
-        const int slot = order[j];
-        const Matrix4 s = global[skin.joints[slot]] * inverse_bind[slot];
-        for (int r = 0; r < 4; ++r)
-          for (int c = 0; c < 4; ++c) bones_a[t][j][r][c] = s(r, c);
+        const int slot = order.slot_of[j];
+        skinning[j] = global[skin.joints[slot]] * joints.inverse_bind[slot];
       }
-    }
-    const auto pose = pose_from_bone_transforms(data.parents, data.rest_joints, bones);
-    ImportedClip clip;
-    clip.name = name;
-    clip.poses.poses = pose.local_rotations;
-    clip.poses.trans = pose.root_translation;
-    clip.poses.joint_names = data.joint_names;
-    clip.max_joint_drift = pose.max_joint_drift;
-    if (T > 1) {
-      std::vector<double> steps;
-      for (int64_t t = 1; t < T; ++t) steps.push_back(times[t] - times[t - 1]);
-      std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
-      if (steps[steps.size() / 2] > 0) clip.fps = 1.0 / steps[steps.size() / 2];
-    }
-    const double size = character_size(data.v_template);
-    if (pose.max_joint_drift > 1e-4 * size)
-      out.notes.push_back(fmt::format("clip '{}' animates translations or scales of non-root joints: kept as rotations, "
-                                      "which moves joints by up to {:.4g} m ({:.2g} % of the character's size)",
-                                      name, pose.max_joint_drift, 100 * pose.max_joint_drift / size));
-    out.clips.push_back(std::move(clip));
+      return skinning;
+    };
+    out.clips.push_back(import_detail::make_clip(path, name, times, skinning_at, data, out.notes));
   }
   BodyModel(data, path);  // validates
   return out;
-}
-
-PoseSet concatenate_clips(const std::vector<ImportedClip>& clips) {
-  FSKIN_CHECK(!clips.empty(), "concatenate_clips: no clips");
-  PoseSet set;
-  std::vector<torch::Tensor> poses, trans;
-  int64_t start = 0;
-  for (const auto& c : clips) {
-    poses.push_back(c.poses.poses);
-    trans.push_back(c.poses.trans);
-    set.clip_names.push_back(c.name);
-    set.clip_starts.push_back(start);
-    start += c.poses.size();
-  }
-  set.poses = torch::cat(poses);
-  set.trans = torch::cat(trans);
-  set.joint_names = clips.front().poses.joint_names;
-  return set;
 }
 
 }  // namespace fskin

@@ -3,6 +3,7 @@
 #include <torch/torch.h>
 
 #include "fskin/core/error.h"
+#include "fskin/geometry/character_size.h"
 #include "fskin/skeleton/pose_from_bones.h"
 
 namespace fskin {
@@ -14,8 +15,12 @@ SkinnedCharacter rigged_avatar(OccupancyModel& model, const std::string& method,
               method,
               method == "ins" ? "adds pose-dependent PIN deformations that a glTF skin cannot hold"
                               : "has no canonical skinning weights");
-  auto* field = model.canonical_skinning_field();
-  FSKIN_CHECK(field != nullptr, "export: the {} model has no canonical skinning field", method);
+  // The weights the deformer poses with (Fast-SNARF: the distilled grid), so
+  // the asset moves as `fskin animate --repose` moves the same mesh.
+  model.train(false);
+  model.freeze_for_inference();
+  auto* field = model.deformer_skinning_field();
+  FSKIN_CHECK(field != nullptr, "export: the {} model has no skinning field", method);
   FSKIN_CHECK(canonical_mesh.num_faces() > 0, "export: the canonical mesh is empty");
   SkinnedCharacter character;
   character.mesh = canonical_mesh;
@@ -32,6 +37,8 @@ SkinnedCharacter rigged_avatar(OccupancyModel& model, const std::string& method,
     const auto pose = pose_from_bone_transforms(skeleton.parents, skeleton.joints, bones);
     character.animation.poses = pose.local_rotations;
     character.animation.trans = pose.root_translation;
+    if (pose.max_joint_drift > 1e-6 * character_size(skeleton.joints))
+      character.animation.joint_translations = pose.joint_translations;
     character.animation.joint_names = skeleton.joint_names;
   }
   return character;

@@ -11,7 +11,8 @@ namespace fskin {
 PosedSkeleton forward_kinematics(const std::vector<int64_t>& parents,
                                  const torch::Tensor& rest_joints,
                                  const torch::Tensor& local_rotations,
-                                 const torch::Tensor& root_translation) {
+                                 const torch::Tensor& root_translation,
+                                 const torch::Tensor& joint_translations) {
   const int64_t J = static_cast<int64_t>(parents.size());
   FSKIN_CHECK(J > 0, "forward_kinematics: zero joints");
   expect_shape(local_rotations, {-1, J, 3, 3}, "forward_kinematics: local_rotations");
@@ -20,6 +21,11 @@ PosedSkeleton forward_kinematics(const std::vector<int64_t>& parents,
   if (rest.dim() == 2) rest = rest.unsqueeze(0).expand({B, J, 3});
   expect_shape(rest, {B, J, 3}, "forward_kinematics: rest_joints");
   rest = rest.to(local_rotations.dtype());
+  torch::Tensor moved;
+  if (joint_translations.defined()) {
+    expect_shape(joint_translations, {B, J, 3}, "forward_kinematics: joint_translations");
+    moved = joint_translations.to(local_rotations.dtype());
+  }
 
   // Offsets from the parent joint in the rest pose; the root's is its position.
   std::vector<torch::Tensor> frames(J);
@@ -31,11 +37,13 @@ PosedSkeleton forward_kinematics(const std::vector<int64_t>& parents,
         expect_shape(root_translation, {B, 3}, "forward_kinematics: root_translation");
         t = t + root_translation.to(t.dtype());
       }
+      if (moved.defined()) t = t + moved.select(1, j);
       frames[j] = make_transform(r, t);
     } else {
       FSKIN_CHECK(parents[j] < j, "forward_kinematics: parent of joint {} is {} (not topological)",
                   j, parents[j]);
-      const auto offset = rest.select(1, j) - rest.select(1, parents[j]);
+      auto offset = rest.select(1, j) - rest.select(1, parents[j]);
+      if (moved.defined()) offset = offset + moved.select(1, j);
       frames[j] = torch::matmul(frames[parents[j]], make_transform(r, offset));
     }
   }

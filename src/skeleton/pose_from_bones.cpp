@@ -38,6 +38,17 @@ RecoveredPose pose_from_bone_transforms(const std::vector<int64_t>& parents, con
   const auto expected = torch::matmul(b.narrow(-2, 0, 3).narrow(-1, 0, 3), rest.unsqueeze(-1)).squeeze(-1) +
                         b.narrow(-2, 0, 3).select(-1, 3);  // [T, J, 3]
   pose.max_joint_drift = (fk.joints - expected).norm(2, -1).max().item<double>();
+  pose.max_scale_deviation = (s - 1).abs().max().item<double>();
+  auto moved = torch::zeros_like(expected);
+  for (int64_t j = 1; j < J; ++j) {
+    const int64_t p = parents[j];
+    if (p < 0) continue;
+    const auto along = torch::matmul(global.select(1, p).transpose(-1, -2),
+                                     (expected.select(1, j) - expected.select(1, p)).unsqueeze(-1))
+                           .squeeze(-1);
+    moved.select(1, j).copy_(along - (rest[j] - rest[p]));
+  }
+  pose.joint_translations = moved.to(torch::kFloat32);
   return pose;
 }
 

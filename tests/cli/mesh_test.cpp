@@ -161,13 +161,47 @@ TEST_F(MeshCommand, ExportWritesARiggedAvatarThatPosesLikeTheLearnedSkinning) {
   const auto played = avatar.pose(clip.poses, {}, clip.trans).vertices;  // [5, V, 3]
   torch::NoGradGuard no_grad;
   const auto vertices = imported.model.v_template;
-  const auto [ids, values] = top_influences(run.model->canonical_skinning_field()->weights(vertices));
+  run.model->train(false);
+  run.model->freeze_for_inference();
+  const auto [ids, values] = top_influences(run.model->deformer_skinning_field()->weights(vertices));
   const auto top4 = torch::zeros({vertices.size(0), avatar.num_joints()}).scatter_add(1, ids, values);
   const auto bones = DatasetPosing::load(run.data_dir).bone_transforms(PoseSet::load(path("poses.npz")), "poses");
   const auto expected = linear_blend_skinning(vertices.unsqueeze(0).expand({5, -1, -1}), top4, bones);
   const double height = (std::get<0>(vertices.max(0)) - std::get<0>(vertices.min(0))).max().item<double>();
   EXPECT_LT((played - expected).abs().max().item<double>(), 1e-4 * height);
   expect_failure("export " + path("run") + " --out " + path("avatar.fbx"), ".glb");
+}
+
+// With every influence (--influences 0) the rigged avatar plays back exactly
+// as `fskin animate --repose` re-poses the same canonical mesh.
+TEST_F(MeshCommand, ExportWithEveryInfluenceEqualsAnimateRepose) {
+  const std::string meshing = " --resolution 32 --initial 8 --largest-component";
+  ASSERT_EQ(run_cli("export " + path("run") + " --out " + path("exact.glb") + " --clip " + path("poses.npz") +
+                    " --influences 0" + meshing),
+            0)
+      << log();
+  EXPECT_NE(log().find("24 influences per vertex"), std::string::npos) << log();
+  ASSERT_EQ(run_cli("animate " + path("run") + " --poses " + path("poses.npz") + " --repose --quiet --out " +
+                    path("reposed") + meshing),
+            0)
+      << log();
+  const auto imported = import_gltf(path("exact.glb"), {/*keep_open_parts=*/true});
+  const BodyModel avatar(imported.model, "exact.glb");
+  const auto& clip = imported.clips.at(0).poses;
+  const auto played = avatar.pose(clip.poses, {}, clip.trans).vertices;  // [5, V, 3]
+  const auto canonical = io::read_mesh(path("reposed") + "/canonical.ply");
+  ASSERT_EQ(canonical.num_vertices(), avatar.num_vertices());
+  // The import welds and compacts: match its vertices to the canonical mesh's.
+  const auto [distance, original] =
+      torch::cdist(imported.model.v_template.to(torch::kFloat64), canonical.vertices.to(torch::kFloat64)).min(1);
+  ASSERT_LT(distance.max().item<double>(), 1e-6);
+  const auto height = (std::get<0>(canonical.vertices.max(0)) - std::get<0>(canonical.vertices.min(0))).max();
+  double largest = 0;
+  for (int k = 0; k < 5; ++k) {
+    const auto frame = io::read_mesh(path("reposed") + fmt::format("/frame_{:04d}.ply", k));
+    largest = std::max(largest, (played[k] - frame.vertices.index_select(0, original)).abs().max().item<double>());
+  }
+  EXPECT_LT(largest, 1e-4 * height.item<double>());
 }
 
 }  // namespace

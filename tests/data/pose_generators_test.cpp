@@ -112,6 +112,15 @@ TEST(PoseGenerators, PoseFileRoundTrip) {
   const auto loaded = PoseSet::load((dir / "ood.npz").string());
   EXPECT_TRUE(torch::equal(loaded.poses, set.poses));
   EXPECT_EQ(loaded.joint_names, set.joint_names);
+  EXPECT_FALSE(loaded.joint_translations.defined());
+  // Joint translations travel with the poses and are checked like them.
+  auto moved = set;
+  moved.joint_translations = torch::randn({4, static_cast<int64_t>(smpl_joint_names().size()), 3}) * 0.01;
+  moved.save((dir / "moved.npz").string());
+  EXPECT_TRUE(torch::equal(PoseSet::load((dir / "moved.npz").string()).joint_translations, moved.joint_translations));
+  EXPECT_TRUE(torch::equal(moved.slice(1, 3).joint_translations, moved.joint_translations.slice(0, 1, 3)));
+  moved.joint_translations = torch::zeros({4, 2, 3});
+  testing::expect_error([&] { moved.save((dir / "bad.npz").string()); }, {"bad.npz", "joint_translations"});
   std::filesystem::remove_all(dir);
 }
 

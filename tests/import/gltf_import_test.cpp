@@ -17,6 +17,7 @@
 #include "fskin/skeleton/rotations.h"
 #include "fskin/util/atomic_file.h"
 #include "io/gltf_file.h"
+#include "import/rig_fixtures.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -24,49 +25,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
-BodyModel small_model(bool quadruped) {
-  if (quadruped) {
-    QuadrupedOptions o;
-    o.resolution = 64;
-    return make_quadruped_model(o);
-  }
-  CharacterOptions o;
-  o.resolution = 48;
-  return make_character_model(o);
-}
-
-SkinnedCharacter skinned(const BodyModel& model, int64_t frames) {
-  SkinnedCharacter c;
-  c.mesh = model.template_mesh();
-  c.weights = model.data().weights;
-  c.skeleton = model.skeleton();
-  if (frames > 0) {
-    c.animation = make_training_poses(model.data().joint_names, {1, frames, 5});
-    c.animation.trans = torch::randn({frames, 3}) * 0.2;
-  }
-  c.fps = 24;
-  return c;
-}
-
-// The dense weights a top-4 export keeps.
-torch::Tensor top4_dense(const torch::Tensor& weights) {
-  const auto [ids, values] = top_influences(weights);
-  return torch::zeros_like(weights).scatter_add(1, ids, values);
-}
-
 class GltfRoundTrip : public ::testing::TestWithParam<bool> {};
 
 TEST_P(GltfRoundTrip, GivesTheSameMeshWeightsSkeletonAndPoses) {
   const auto dir = testing::temp_dir("gltf_round_trip");
-  const auto model = small_model(GetParam());
-  const auto character = skinned(model, 6);
+  const auto model = testing::small_model(GetParam());
+  const auto character = testing::skinned(model, 6);
   const auto path = (dir / "character.glb").string();
   write_skinned_gltf(path, character);
   const auto imported = import_gltf(path);
   const auto& d = imported.model;
   EXPECT_TRUE(torch::allclose(d.v_template, character.mesh.vertices, 0, 1e-5));
   EXPECT_TRUE(torch::equal(d.faces, character.mesh.faces));
-  EXPECT_LT((d.weights - top4_dense(character.weights)).abs().max().item<float>(), 1e-5);
+  EXPECT_LT((d.weights - testing::top4_dense(character.weights)).abs().max().item<float>(), 1e-5);
   EXPECT_EQ(d.joint_names, character.skeleton.joint_names);
   EXPECT_EQ(d.parents, character.skeleton.parents);
   EXPECT_LT((d.rest_joints - character.skeleton.rest_joints).abs().max().item<float>(), 1e-5);
@@ -82,7 +53,7 @@ TEST_P(GltfRoundTrip, GivesTheSameMeshWeightsSkeletonAndPoses) {
   EXPECT_LT(clip.max_joint_drift, 1e-5);
   // The imported model poses like the original with its top-4 weights.
   BodyModelData reference = model.data();
-  reference.weights = top4_dense(reference.weights);
+  reference.weights = testing::top4_dense(reference.weights);
   reference.posedirs = torch::Tensor();
   const auto a = BodyModel(reference, "reference").pose(character.animation.poses, {}, character.animation.trans);
   const auto b = BodyModel(d, path).pose(clip.poses.poses, {}, clip.poses.trans);
@@ -97,14 +68,50 @@ TEST_P(GltfRoundTrip, GivesTheSameMeshWeightsSkeletonAndPoses) {
 INSTANTIATE_TEST_SUITE_P(BuiltInCharacters, GltfRoundTrip, ::testing::Values(false, true),
                          [](const auto& info) { return info.param ? "quadruped" : "humanoid"; });
 
+// Rigs animate the translations of non-root joints (stretchy spines,
+// sliding props): the export writes them as translation channels, the import
+// recovers them, and the model poses as the original.
+TEST(GltfImport, ClipsKeepNonRootJointTranslations) {
+  const auto dir = testing::temp_dir("gltf_joint_translations");
+  const auto model = testing::small_model(false);
+  auto character = testing::skinned(model, 4);
+  const int64_t J = model.num_joints();
+  torch::manual_seed(2);
+  auto moved = torch::randn({4, J, 3}) * 0.03;
+  moved.select(1, 0).zero_();
+  character.animation.joint_translations = moved;
+  const auto path = (dir / "stretchy.glb").string();
+  write_skinned_gltf(path, character);
+  const auto imported = import_gltf(path);
+  ASSERT_EQ(imported.clips.size(), 1u);
+  const auto& clip = imported.clips[0].poses;
+  ASSERT_TRUE(clip.joint_translations.defined());
+  EXPECT_LT((clip.joint_translations - moved).abs().max().item<float>(), 1e-5);
+  EXPECT_GT(imported.clips[0].max_joint_drift, 0.01);
+  BodyModelData reference = model.data();
+  reference.weights = testing::top4_dense(reference.weights);
+  reference.posedirs = torch::Tensor();
+  const auto& anim = character.animation;
+  const auto a = BodyModel(reference, "reference").pose(anim.poses, {}, anim.trans, moved);
+  const auto b = BodyModel(imported.model, path).pose(clip.poses, {}, clip.trans, clip.joint_translations);
+  EXPECT_LT((a.vertices - b.vertices).abs().max().item<float>(), 1e-4);
+  bool noted = false;
+  for (const auto& note : imported.notes) noted |= note.find("kept as joint translations") != std::string::npos;
+  EXPECT_TRUE(noted);
+  // And through a pose file.
+  concatenate_clips(imported.clips).save((dir / "clips.npz").string());
+  EXPECT_TRUE(torch::equal(PoseSet::load((dir / "clips.npz").string()).joint_translations, clip.joint_translations));
+  fs::remove_all(dir);
+}
+
 // DCC tools give joints rest rotations (bone frames along the bones): turn
 // every joint's frame by its own rotation Q_j (locals Q_p^T L_j Q_j, inverse
 // bind matrices Q_j^T IBM_j, animated rotations likewise). The skinning is
 // unchanged, so the import must be too.
 TEST(GltfImport, JointRestRotationsDoNotChangeTheImport) {
   const auto dir = testing::temp_dir("gltf_rest_rotations");
-  const auto model = small_model(false);
-  const auto character = skinned(model, 4);
+  const auto model = testing::small_model(false);
+  const auto character = testing::skinned(model, 4);
   const auto plain = (dir / "plain.glb").string(), turned = (dir / "turned.glb").string();
   write_skinned_gltf(plain, character);
   auto gltf = gltf::load(plain);
@@ -172,8 +179,8 @@ TEST(GltfImport, WeldsSeamDuplicatesIntoAClosedSurface) {
   // A glTF exporter splits vertices at UV seams: duplicate every vertex of
   // one half of the faces; welding must restore the closed mesh.
   const auto dir = testing::temp_dir("gltf_weld");
-  const auto model = small_model(false);
-  auto character = skinned(model, 0);
+  const auto model = testing::small_model(false);
+  auto character = testing::skinned(model, 0);
   const int64_t V = character.mesh.num_vertices(), F = character.mesh.num_faces();
   character.mesh.vertices = torch::cat({character.mesh.vertices, character.mesh.vertices});
   character.weights = torch::cat({character.weights, character.weights});
@@ -199,15 +206,15 @@ TEST(GltfImport, UnusableFilesNameTheFileAndTheProblem) {
   write_gltf_animation(unskinned, animation);
   testing::expect_error([&] { import_gltf(unskinned); }, {"unskinned.glb", "no skinned mesh"});
   // No closed part: one face removed.
-  const auto model = small_model(false);
-  auto open = skinned(model, 0);
+  const auto model = testing::small_model(false);
+  auto open = testing::skinned(model, 0);
   open.mesh.faces = open.mesh.faces.slice(0, 1);
   const auto holes = (dir / "holes.glb").string();
   write_skinned_gltf(holes, open);
   testing::expect_error([&] { import_gltf(holes); }, {"holes.glb", "closed"});
   // Two roots: cut the link from the root joint to its first child.
   const auto two_roots = (dir / "two_roots.gltf").string();
-  write_skinned_gltf(two_roots, skinned(model, 0));
+  write_skinned_gltf(two_roots, testing::skinned(model, 0));
   auto json = nlohmann::json::parse(read_file(two_roots));
   auto& children = json["nodes"][0]["children"];
   const auto first_child = children[0].get<int>();
@@ -221,15 +228,25 @@ TEST(GltfImport, UnusableFilesNameTheFileAndTheProblem) {
 
 TEST(SkinnedGltf, PassesTheKhronosValidatorAndLoadsInThreeJs) {
   const auto dir = testing::temp_dir("skinned_gltf_check");
-  const auto model = small_model(true);
+  const auto model = testing::small_model(true);
   const auto glb = (dir / "quadruped.glb").string(), log = (dir / "check.log").string();
-  write_skinned_gltf(glb, skinned(model, 4));
-  const std::string command = "node " + std::string(FSKIN_GLTF_CHECK) + " " + glb + " > " + log + " 2>&1";
-  const int status = std::system(command.c_str());
-  const std::string output = read_file(log);
-  ASSERT_EQ(status, 0) << output << "\n(scripts/setup.sh installs node and the checkers)";
-  EXPECT_NE(output.find("\"errors\":0,\"warnings\":0"), std::string::npos) << output;
-  EXPECT_NE(output.find("\"skinned\":true,\"bones\":33,\"clips\":1"), std::string::npos) << output;
+  // Four influences (what engines read) and every influence (9 sets of four).
+  for (const int64_t influences : {4, 0}) {
+    auto character = testing::skinned(model, 4);
+    character.influences = influences;
+    write_skinned_gltf(glb, character);
+    const std::string command = "node " + std::string(FSKIN_GLTF_CHECK) + " " + glb + " > " + log + " 2>&1";
+    const int status = std::system(command.c_str());
+    const std::string output = read_file(log);
+    ASSERT_EQ(status, 0) << output << "\n(scripts/setup.sh installs node and the checkers)";
+    EXPECT_NE(output.find("\"errors\":0,\"warnings\":0"), std::string::npos) << influences << ": " << output;
+    EXPECT_NE(output.find("\"skinned\":true,\"bones\":33,\"clips\":1"), std::string::npos) << output;
+  }
+  // Every influence imports back as the exact weights.
+  auto exact = testing::skinned(model, 0);
+  exact.influences = 0;
+  write_skinned_gltf(glb, exact);
+  EXPECT_LT((import_gltf(glb).model.weights - model.data().weights).abs().max().item<float>(), 1e-5);
   fs::remove_all(dir);
 }
 

@@ -42,6 +42,26 @@ TEST(ForwardKinematics, HandComputedChain) {
   EXPECT_TRUE(torch::allclose(p, torch::tensor({-0.5, 1.0, 5.0}, kF64), 1e-12, 1e-12));
 }
 
+TEST(ForwardKinematics, JointTranslationsMoveAJointInItsParentsFrame) {
+  // Root turns +90 deg about z; the elbow is pushed 0.5 along the root's x
+  // (its bone stretches), the tip 0.25 along the elbow's y.
+  auto aa = torch::zeros({1, 3, 3}, kF64);
+  aa[0][0][2] = M_PI / 2;
+  auto moved = torch::zeros({1, 3, 3}, kF64);
+  moved[0][1][0] = 0.5;
+  moved[0][2][1] = 0.25;
+  const auto out = forward_kinematics({-1, 0, 1}, chain_joints(), axis_angle_to_matrix(aa), {}, moved);
+  EXPECT_TRUE(torch::allclose(out.joints[0][1], torch::tensor({0.0, 1.5, 0.0}, kF64), 1e-12, 1e-12));
+  EXPECT_TRUE(torch::allclose(out.joints[0][2], torch::tensor({-0.25, 2.5, 0.0}, kF64), 1e-12, 1e-12));
+  // A root entry adds to the root translation.
+  auto root_moved = torch::zeros({1, 3, 3}, kF64);
+  root_moved[0][0][2] = 2.0;
+  const auto shifted = forward_kinematics({-1, 0, 1}, chain_joints(), axis_angle_to_matrix(aa), {}, root_moved);
+  EXPECT_TRUE(torch::allclose(shifted.joints[0][2], torch::tensor({0.0, 2.0, 2.0}, kF64), 1e-12, 1e-12));
+  EXPECT_THROW(forward_kinematics({-1, 0, 1}, chain_joints(), axis_angle_to_matrix(aa), {}, torch::zeros({1, 2, 3})),
+               std::runtime_error);
+}
+
 TEST(ForwardKinematics, RelativeTransformsComposeToTarget) {
   torch::manual_seed(0);
   const auto a = forward_kinematics({-1, 0, 1}, chain_joints(),

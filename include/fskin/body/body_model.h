@@ -58,9 +58,10 @@ class BodyModel {
   Skeleton skeleton() const;
   Mesh template_mesh() const;
 
-  // axis_angle [B, J, 3]; betas [B, S'] (S' <= S, or undefined); trans [B, 3] or undefined.
+  // axis_angle [B, J, 3]; betas [B, S'] (S' <= S, or undefined); trans [B, 3] or undefined;
+  // joint_translations [B, J, 3] or undefined (forward_kinematics.h).
   PosedBody pose(const torch::Tensor& axis_angle, const torch::Tensor& betas = {},
-                 const torch::Tensor& trans = {}) const;
+                 const torch::Tensor& trans = {}, const torch::Tensor& joint_translations = {}) const;
 
  private:
   BodyModelData data_;

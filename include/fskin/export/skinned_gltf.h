@@ -1,16 +1,19 @@
 #pragma once
 // A skinned character as a glTF 2.0 asset that engines, three.js and Blender
 // play as a normal rigged character: one mesh with JOINTS_0 / WEIGHTS_0 (the
-// four largest influences per vertex, renormalised), a skin whose joints are
-// nodes of the kinematic tree, and optionally a pose set as an animation.
+// four largest influences per vertex, renormalised: what every engine and
+// three.js read), or more sets JOINTS_n / WEIGHTS_n for more influences
+// (glTF allows them; Blender reads them), a skin whose joints are nodes of
+// the kinematic tree, and optionally a pose set as an animation.
 //
 // Joint nodes carry fskin's joint frames (docs/conventions.md): at rest a
 // joint's translation is rest_j - rest_parent and its rotation the identity,
 // and its inverse bind matrix translates by -rest_j, so the skinning matrix
 // of joint j is exactly forward_kinematics' bone transform B_j. The
 // animation has one rotation channel per joint (the pose's local rotations)
-// and a translation channel for the root (rest_0 + trans), LINEAR, one
-// keyframe per pose at t = i / fps.
+// and a translation channel for the root (rest_0 + trans) and, when the pose
+// set has joint translations, for every other joint (rest_j - rest_parent +
+// its translation), LINEAR, one keyframe per pose at t = i / fps.
 #include <torch/types.h>
 
 #include <string>
@@ -29,6 +32,9 @@ struct SkinnedCharacter {
   PoseSet animation;      // optional (size() == 0: none); poses relative to the rest pose
   double fps = 30;
   std::string animation_name = "poses";
+  // Influences per vertex: the largest weights, renormalised, in sets of
+  // four; 0 keeps every joint's weight (the exact skinning, ceil(J / 4) sets).
+  int64_t influences = 4;
 
   // Throws fskin::Error prefixed with `context` on mismatched shapes.
   void validate(const std::string& context) const;

@@ -1,8 +1,11 @@
 #pragma once
 // A learned avatar as a rigged asset (`fskin export`): the canonical mesh of a
-// trained run, the learned skinning weights at its vertices, and the skeleton
-// in the canonical pose, so engines and Blender play it as a normal rigged
-// character (export/skinned_gltf.h keeps the four largest weights per vertex).
+// trained run, the learned skinning weights at its vertices (those the
+// deformer poses with: Fast-SNARF's distilled grid, SNARF's network, so the
+// asset moves as `fskin animate --repose` moves the same mesh), and the
+// skeleton in the canonical pose, so engines and Blender play it as a normal
+// rigged character (export/skinned_gltf.h keeps the four largest weights per
+// vertex unless asked for more).
 // Only the forward-skinning methods (SNARF, Fast-SNARF) are exactly LBS of
 // their canonical shape; INS adds pose-dependent PIN deformations that a
 // glTF skin cannot hold, and the baselines have no canonical weights.

@@ -18,10 +18,15 @@ struct PosedSkeleton {
 // rest_joints: [J, 3] or [B, J, 3] joint positions in the rest pose.
 // local_rotations: [B, J, 3, 3] rotation of each joint relative to its parent.
 // root_translation: [B, 3], or undefined for none.
+// joint_translations: [B, J, 3] or undefined: each joint's displacement from
+// its rest offset, in its parent's frame (rigs that animate the translations
+// of non-root joints: stretchy spines, facial rigs, props). The root's entry
+// adds to root_translation.
 PosedSkeleton forward_kinematics(const std::vector<int64_t>& parents,
                                  const torch::Tensor& rest_joints,
                                  const torch::Tensor& local_rotations,
-                                 const torch::Tensor& root_translation = {});
+                                 const torch::Tensor& root_translation = {},
+                                 const torch::Tensor& joint_translations = {});
 
 // Transforms from an arbitrary canonical pose to the target pose:
 // posed_from_canonical = posed_bones @ inverse(canonical_bones), both [..., J, 4, 4].

@@ -1,0 +1,175 @@
+#include "import/rig_assembly.h"
+
+#include <torch/torch.h>
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <tuple>
+
+#include "fskin/core/error.h"
+#include "fskin/geometry/character_size.h"
+#include "fskin/geometry/mesh_topology.h"
+#include "fskin/skeleton/pose_from_bones.h"
+
+namespace fskin::import_detail {
+
+JointOrder order_joints(const std::string& path, const SourceJoints& joints, BodyModelData& data) {
+  const auto J = static_cast<int64_t>(joints.names.size());
+  FSKIN_CHECK(J >= 1, "{}: the skeleton has no joints", path);
+  std::vector<std::string> roots;
+  for (int64_t i = 0; i < J; ++i)
+    if (joints.parent[i] < 0) roots.push_back(joints.names[i]);
+  FSKIN_CHECK(roots.size() == 1, "{}: the skeleton has {} roots ({}{}); fskin needs one root joint", path,
+              roots.size(), fmt::format("{}", fmt::join(roots.begin(), roots.begin() + std::min<size_t>(roots.size(), 5), ", ")),
+              roots.size() > 5 ? ", ..." : "");
+  {
+    std::set<std::string> unique(joints.names.begin(), joints.names.end());
+    FSKIN_CHECK(unique.size() == joints.names.size(), "{}: two joints share a name; fskin needs unique names", path);
+  }
+  // Parents first, otherwise in the source's order: a slot is taken once its
+  // parent has been (the source's own order when it already is topological).
+  JointOrder order;
+  order.index_of_slot.assign(J, -1);
+  while (static_cast<int64_t>(order.slot_of.size()) < J) {
+    const size_t before = order.slot_of.size();
+    for (int64_t i = 0; i < J; ++i)
+      if (order.index_of_slot[i] < 0 && (joints.parent[i] < 0 || order.index_of_slot[joints.parent[i]] >= 0)) {
+        order.index_of_slot[i] = static_cast<int64_t>(order.slot_of.size());
+        order.slot_of.push_back(static_cast<int>(i));
+      }
+    FSKIN_CHECK(order.slot_of.size() > before, "{}: the joint hierarchy has a cycle", path);
+  }
+  data.joint_names.clear();
+  data.parents.clear();
+  data.rest_joints = torch::zeros({J, 3});
+  for (int64_t j = 0; j < J; ++j) {
+    const int slot = order.slot_of[j];
+    data.joint_names.push_back(joints.names[slot]);
+    data.parents.push_back(joints.parent[slot] < 0 ? -1 : order.index_of_slot[joints.parent[slot]]);
+    const Eigen::Matrix4d bind = joints.inverse_bind[slot].inverse();
+    FSKIN_CHECK(bind.allFinite(), "{}: the inverse bind matrix of joint '{}' is singular", path, joints.names[slot]);
+    for (int a = 0; a < 3; ++a) data.rest_joints[j][a] = bind(a, 3);
+  }
+  return order;
+}
+
+void assemble_mesh(const std::string& path, const SkinnedSoup& soup, const ImportOptions& options,
+                   BodyModelData& data, std::vector<std::string>& notes) {
+  const auto J = static_cast<int64_t>(data.joint_names.size());
+  const int64_t V_in = static_cast<int64_t>(soup.positions.size() / 3);
+  FSKIN_CHECK(V_in > 0 && !soup.faces.empty(), "{}: the skinned meshes have no skinned triangles", path);
+  auto positions = soup.positions;  // from_blob needs a mutable buffer
+  auto weights = soup.weights;
+  const auto all = torch::from_blob(positions.data(), {V_in, 3}, torch::kFloat64).clone();
+  const double tolerance = 1e-6 * character_size(all, path.c_str());
+  std::map<std::tuple<int64_t, int64_t, int64_t>, int64_t> welded_index;
+  std::vector<int64_t> remap(V_in);
+  std::vector<int64_t> keep;  // first input vertex of each welded vertex
+  for (int64_t v = 0; v < V_in; ++v) {
+    const auto key = std::make_tuple(std::llround(positions[3 * v] / tolerance), std::llround(positions[3 * v + 1] / tolerance),
+                                     std::llround(positions[3 * v + 2] / tolerance));
+    const auto [it, inserted] = welded_index.emplace(key, static_cast<int64_t>(keep.size()));
+    if (inserted) keep.push_back(v);
+    remap[v] = it->second;
+  }
+  std::vector<int64_t> welded_faces;
+  int64_t degenerate = 0;
+  for (size_t f = 0; f < soup.faces.size(); f += 3) {
+    const int64_t a = remap[soup.faces[f]], b = remap[soup.faces[f + 1]], c = remap[soup.faces[f + 2]];
+    if (a == b || b == c || a == c) {
+      ++degenerate;
+      continue;
+    }
+    welded_faces.insert(welded_faces.end(), {a, b, c});
+  }
+  FSKIN_CHECK(!welded_faces.empty(), "{}: every triangle of the skinned meshes is degenerate", path);
+  notes.push_back(fmt::format("merged {} skinned part(s): {} vertices welded to {} by position{}", soup.parts, V_in,
+                              keep.size(), degenerate ? fmt::format(", {} degenerate faces dropped", degenerate) : ""));
+  const auto keep_tensor = torch::tensor(keep, torch::kInt64);
+  Mesh mesh{all.index_select(0, keep_tensor).to(torch::kFloat32),
+            torch::tensor(welded_faces, torch::kInt64).view({-1, 3}), {}};
+  auto vertex_weights = torch::from_blob(weights.data(), {V_in, J}, torch::kFloat64).index_select(0, keep_tensor);
+
+  // Keep the closed components.
+  const auto components = connected_components(mesh);
+  std::vector<torch::Tensor> kept_faces;
+  int64_t dropped = 0;
+  for (int64_t c = 0; c < components.count; ++c) {
+    const auto part = mesh.faces.index({components.face_labels == c});
+    if (options.keep_open_parts || analyze_topology(Mesh{mesh.vertices, part, {}}).is_closed_manifold()) {
+      kept_faces.push_back(part);
+    } else {
+      ++dropped;
+    }
+  }
+  FSKIN_CHECK(!kept_faces.empty(),
+              "{}: none of the {} connected part(s) of the skinned mesh is closed (every one has holes or "
+              "non-manifold edges); fskin learns occupancy and needs a closed surface (--keep-open-parts "
+              "imports it anyway, e.g. for its clips)",
+              path, components.count);
+  if (dropped > 0)
+    notes.push_back(fmt::format("dropped {} of {} connected parts that are not closed surfaces", dropped, components.count));
+  notes.push_back(options.keep_open_parts ? fmt::format("kept all {} part(s), closed or not", kept_faces.size())
+                                          : fmt::format("the result is {} closed part(s)", kept_faces.size()));
+  const auto used_faces = torch::cat(kept_faces);
+  // Compact: only the vertices the kept faces use, in order.
+  auto used = torch::zeros({mesh.num_vertices()}, torch::kBool);
+  used.index_put_({used_faces.flatten()}, true);
+  const auto used_ids = used.nonzero().flatten();
+  auto new_index = torch::full({mesh.num_vertices()}, -1, torch::kInt64);
+  new_index.index_put_({used_ids}, torch::arange(used_ids.size(0), torch::kInt64));
+  data.v_template = mesh.vertices.index_select(0, used_ids).contiguous();
+  data.faces = new_index.index_select(0, used_faces.flatten()).view({-1, 3}).contiguous();
+  vertex_weights = vertex_weights.index_select(0, used_ids);
+  const auto totals = vertex_weights.sum(1);
+  const int64_t unweighted = (totals <= 0).sum().item<int64_t>();
+  FSKIN_CHECK(unweighted == 0, "{}: {} vertices of the skinned mesh have no joint weights", path, unweighted);
+  data.weights = (vertex_weights / totals.unsqueeze(1)).to(torch::kFloat32).contiguous();
+}
+
+ImportedClip make_clip(const std::string& path, const std::string& name, const std::vector<double>& times,
+                       const SkinningAt& skinning_at, const BodyModelData& data, std::vector<std::string>& notes) {
+  const auto T = static_cast<int64_t>(times.size());
+  const auto J = static_cast<int64_t>(data.joint_names.size());
+  auto bones = torch::zeros({T, J, 4, 4}, torch::kFloat64);
+  auto bones_a = bones.accessor<double, 4>();
+  for (int64_t t = 0; t < T; ++t) {
+    const auto skinning = skinning_at(static_cast<size_t>(t));
+    for (int64_t j = 0; j < J; ++j) {
+      FSKIN_CHECK(skinning[j].allFinite(), "{}: clip '{}' gives joint '{}' a non-finite transform at {} s", path, name,
+                  data.joint_names[j], times[t]);
+      for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) bones_a[t][j][r][c] = skinning[j](r, c);
+    }
+  }
+  const auto pose = pose_from_bone_transforms(data.parents, data.rest_joints, bones);
+  ImportedClip clip;
+  clip.name = name;
+  clip.poses.poses = pose.local_rotations;
+  clip.poses.trans = pose.root_translation;
+  clip.poses.joint_names = data.joint_names;
+  clip.max_joint_drift = pose.max_joint_drift;
+  if (times.size() > 1) {
+    std::vector<double> steps;
+    for (size_t t = 1; t < times.size(); ++t) steps.push_back(times[t] - times[t - 1]);
+    std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+    if (steps[steps.size() / 2] > 0) clip.fps = 1.0 / steps[steps.size() / 2];
+  }
+  const double size = character_size(data.v_template);
+  if (pose.max_joint_drift > 1e-4 * size) {
+    clip.poses.joint_translations = pose.joint_translations;
+    notes.push_back(fmt::format("clip '{}' animates translations of non-root joints (up to {:.4g} m, {:.2g} % of the "
+                                "character's size): kept as joint translations",
+                                name, pose.max_joint_drift, 100 * pose.max_joint_drift / size));
+  }
+  if (pose.max_scale_deviation > 1e-4)
+    notes.push_back(fmt::format("clip '{}' scales joints (by up to {:.3g} %): fskin's joint transforms are rigid, "
+                                "so the scale is dropped",
+                                name, 100 * pose.max_scale_deviation));
+  return clip;
+}
+
+}  // namespace fskin::import_detail
