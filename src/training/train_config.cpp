@@ -284,4 +284,10 @@ std::shared_ptr<OccupancyModel> make_model(const TrainConfig& config, const Cano
   return make_model(model_options(config, skeleton));
 }
 
+double fraction_outside_grid(const ModelOptions& options, const CanonicalSkeleton& skeleton) {
+  if (options.method != Method::FastSnarf && options.method != Method::Ins) return 0.0;
+  const auto inside = options.forward_skinning.box.contains(skeleton.extent.to(torch::kFloat32));
+  return 1.0 - inside.to(torch::kFloat64).mean().item<double>();
+}
+
 }  // namespace fskin

@@ -1,6 +1,7 @@
 #include "fskin/training/trainer.h"
 
 #include <ATen/CPUGeneratorImpl.h>
+#include <cstdio>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
@@ -157,7 +158,15 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
 
   torch::manual_seed(config.seed);
   const auto& skeleton = source.skeleton();
-  const auto model_ptr = make_model(config, skeleton);
+  const auto described = model_options(config, skeleton);
+  const double outside = fraction_outside_grid(described, skeleton);
+  if (outside > 0)
+    std::fprintf(stderr,
+                 "fskin: warning: %.1f %% of the canonical body lies outside the skinning grid box and gets no "
+                 "skinning weights (grid_resolution=%lld%s)\n",
+                 100 * outside, static_cast<long long>(config.grid_resolution),
+                 config.grid_resolution == 0 ? ": the papers' person layout; the default fits any character" : "");
+  const auto model_ptr = make_model(described);
   OccupancyModel& model = *model_ptr;
   model.train(true);
   std::vector<torch::optim::OptimizerParamGroup> groups;

@@ -124,6 +124,7 @@ TEST(TrainConfig, DefaultsFollowTheSkeletonNotAPerson) {
   EXPECT_EQ(f.box.shape.depth, 32);
   EXPECT_LE(f.box.shape.width, 9);  // 0.6 m + 2 x 5 % padding of 4 m, near-cubic voxels
   EXPECT_TRUE(f.box.contains(extent).all().item<bool>());
+  EXPECT_EQ(fraction_outside_grid(options, skeleton_of(names, extent)), 0.0);
   // Broyden's thresholds are lengths: for a 4 m body (4 / 1.7) x the papers'.
   EXPECT_NEAR(f.deformer.converge_sq, 1e-8 * std::pow(4.0 / 1.7, 2), 1e-15);
   EXPECT_NEAR(f.deformer.duplicate_distance, 1e-4 * 4.0 / 1.7, 1e-12);
@@ -139,9 +140,12 @@ TEST(TrainConfig, DefaultsFollowTheSkeletonNotAPerson) {
   // grid_resolution 0: the explicit grid in the papers' person layout.
   c = TrainConfig{};
   c.grid_resolution = 0;
-  const auto legacy = model_options(c, skeleton_of(names, extent)).forward_skinning.box;
+  const auto legacy_options = model_options(c, skeleton_of(names, extent));
+  const auto& legacy = legacy_options.forward_skinning.box;
   EXPECT_EQ(legacy.shape.depth, 8);
   EXPECT_FALSE(legacy.contains(extent).all().item<bool>());  // why it is no longer the default
+  // ... and what training warns about (the extent's two corners: both out).
+  EXPECT_GT(fraction_outside_grid(legacy_options, skeleton_of(names, extent)), 0.4);
   testing::expect_error([&] { c.set("grid_resolution=2"); }, {"grid_resolution"});
 }
 

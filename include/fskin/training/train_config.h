@@ -189,4 +189,10 @@ ModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& s
 // make_model(model_options(config, skeleton)).
 std::shared_ptr<OccupancyModel> make_model(const TrainConfig& config, const CanonicalSkeleton& skeleton);
 
+// For the grid-skinned methods (Fast-SNARF, INS): the fraction of
+// skeleton.extent's points outside the skinning grid box, which get no
+// skinning weights. 0 with the fitted box (grid_resolution > 0); the papers'
+// person layout (grid_resolution=0) can leave parts of other characters out.
+double fraction_outside_grid(const ModelOptions& options, const CanonicalSkeleton& skeleton);
+
 }  // namespace fskin
