@@ -244,16 +244,25 @@ ImportedMotion import_bvh(const std::string& path, const Skeleton& model,
 ImportedMotion import_amass(const std::string& path, const Skeleton& model) {
   io::NpzReader npz(path);
   FSKIN_CHECK(npz.contains("poses"), "{}: missing array 'poses' [T, 3J]", path);
-  auto poses = npz.tensor("poses").to(torch::kFloat32);
+  auto poses = npz.tensor("poses");
+  FSKIN_CHECK(poses.is_floating_point(), "{}: 'poses' must be floating point (axis-angle in radians)", path);
+  poses = poses.to(torch::kFloat32);
   if (poses.dim() == 2) {
-    FSKIN_CHECK(poses.size(1) % 3 == 0, "{}: 'poses' has {} columns, not 3 per joint", path, poses.size(1));
+    FSKIN_CHECK(poses.size(0) > 0 && poses.size(1) > 0 && poses.size(1) % 3 == 0,
+                "{}: 'poses' is [{}, {}]: [T, 3J] with T, J > 0 expected", path, poses.size(0), poses.size(1));
     poses = poses.reshape({poses.size(0), -1, 3});
   }
   FSKIN_CHECK(poses.dim() == 3 && poses.size(2) == 3 && poses.size(0) > 0, "{}: 'poses' must be [T, 3J] or [T, J, 3]",
               path);
   const int64_t T = poses.size(0), file_joints = poses.size(1), J = model.num_joints();
   ImportedMotion out;
-  if (npz.contains("mocap_framerate")) out.fps = npz.tensor("mocap_framerate").to(torch::kFloat64).item<double>();
+  if (npz.contains("mocap_framerate")) {
+    const auto rate = npz.tensor("mocap_framerate");
+    FSKIN_CHECK(rate.numel() == 1, "{}: 'mocap_framerate' has {} values, one expected", path, rate.numel());
+    out.fps = rate.to(torch::kFloat64).item<double>();
+    FSKIN_CHECK(std::isfinite(out.fps) && out.fps > 0, "{}: 'mocap_framerate' is {}, a positive rate expected", path,
+                out.fps);
+  }
   if (file_joints != J) {
     constexpr int64_t kBodyJoints = 22;
     FSKIN_CHECK(is_smpl_skeleton(model.joint_names) && file_joints >= kBodyJoints && J >= kBodyJoints,

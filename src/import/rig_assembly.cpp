@@ -15,6 +15,13 @@
 #include "fskin/skeleton/pose_from_bones.h"
 
 namespace fskin::import_detail {
+namespace {
+
+// Coordinates beyond this are corrupt files, not characters (1e12 m is
+// beyond any unit mistake and far inside float32's range).
+constexpr double kLargestCoordinate = 1e12;
+
+}  // namespace
 
 JointOrder order_joints(const std::string& path, const SourceJoints& joints, BodyModelData& data) {
   const auto J = static_cast<int64_t>(joints.names.size());
@@ -51,6 +58,10 @@ JointOrder order_joints(const std::string& path, const SourceJoints& joints, Bod
     data.parents.push_back(joints.parent[slot] < 0 ? -1 : order.index_of_slot[joints.parent[slot]]);
     const Eigen::Matrix4d bind = joints.inverse_bind[slot].inverse();
     FSKIN_CHECK(bind.allFinite(), "{}: the inverse bind matrix of joint '{}' is singular", path, joints.names[slot]);
+    const double largest = bind.block<3, 1>(0, 3).cwiseAbs().maxCoeff();
+    FSKIN_CHECK(largest < kLargestCoordinate,
+                "{}: joint '{}' is bound at ({:.3g}, {:.3g}, {:.3g}), beyond {:g} in magnitude", path,
+                joints.names[slot], bind(0, 3), bind(1, 3), bind(2, 3), kLargestCoordinate);
     for (int a = 0; a < 3; ++a) data.rest_joints[j][a] = bind(a, 3);
   }
   return order;
@@ -61,6 +72,10 @@ void assemble_mesh(const std::string& path, const SkinnedSoup& soup, const Impor
   const auto J = static_cast<int64_t>(data.joint_names.size());
   const int64_t V_in = static_cast<int64_t>(soup.positions.size() / 3);
   FSKIN_CHECK(V_in > 0 && !soup.faces.empty(), "{}: the skinned meshes have no skinned triangles", path);
+  for (size_t i = 0; i < soup.positions.size(); ++i)
+    FSKIN_CHECK(std::isfinite(soup.positions[i]) && std::abs(soup.positions[i]) < kLargestCoordinate,
+                "{}: vertex {} of the skinned mesh has coordinate {:.3g} (finite and below {:g} in magnitude expected)",
+                path, i / 3, soup.positions[i], kLargestCoordinate);
   auto positions = soup.positions;  // from_blob needs a mutable buffer
   auto weights = soup.weights;
   const auto all = torch::from_blob(positions.data(), {V_in, 3}, torch::kFloat64).clone();

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fskin/body/smpl_skeleton.h"
+#include "fskin/core/error.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -147,6 +148,40 @@ TEST(TrainConfig, DefaultsFollowTheSkeletonNotAPerson) {
   // ... and what training warns about (the extent's two corners: both out).
   EXPECT_GT(fraction_outside_grid(legacy_options, skeleton_of(names, extent)), 0.4);
   testing::expect_error([&] { c.set("grid_resolution=2"); }, {"grid_resolution"});
+}
+
+// Every key of the config given every kind of bad value (as `--set` would):
+// accepted, or rejected with fskin::Error naming the key, also when the model
+// is then made from it; never another exception.
+TEST(TrainConfig, EveryKeyWithABadValueIsAnFskinError) {
+  const auto keys = nlohmann::json::parse(TrainConfig{}.to_json());
+  const std::vector<std::string> values = {"",      "abc",   "-1",    "0",      "1e308", "nan",          "inf",
+                                           "-inf",  "[1,2]", "{}",    "999999999999999999999", "true", "0.5",
+                                           "automatic:abc", "automatic:0", "automatic:-3", "all", "\"x\"", "null"};
+  std::vector<std::string> names;
+  for (int j = 0; j < 5; ++j) names.push_back("j" + std::to_string(j));
+  const auto skeleton = skeleton_of(names, torch::tensor({{-1.0, -1.0, -1.0}, {1.0, 1.0, 1.0}}));
+  int64_t accepted = 0, rejected = 0;
+  std::vector<std::string> internal;
+  for (auto it = keys.begin(); it != keys.end(); ++it)
+    for (const auto& value : values) {
+      const std::string assignment = it.key() + "=" + value;
+      try {
+        TrainConfig c;
+        c.set(assignment);
+        c.validate();
+        model_options(c, skeleton);
+        ++accepted;
+      } catch (const Error&) {
+        ++rejected;
+      } catch (const std::exception& e) {
+        internal.push_back(assignment + ": " + std::string(e.what()).substr(0, 200));
+      }
+    }
+  std::string examples;
+  for (size_t i = 0; i < internal.size() && i < 8; ++i) examples += "\n  " + internal[i];
+  EXPECT_TRUE(internal.empty()) << internal.size() << " assignments raised a non-fskin error:" << examples;
+  EXPECT_GT(rejected, accepted);
 }
 
 TEST(TrainConfig, BootstrapLastsOneEpoch) {

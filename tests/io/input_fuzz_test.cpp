@@ -1,0 +1,499 @@
+// Every file fskin reads, mutated: seeded byte mutations (bit flips, special
+// bytes, truncation, insertion, deleted and repeated chunks) and structure
+// mutations (an .npz member re-typed, re-shaped, emptied, filled with NaN,
+// infinities, huge values or out-of-range indices, removed or added; a JSON
+// value deleted or given another type or an extreme number; a text line
+// deleted, repeated or with a token replaced). Each case must be accepted or
+// rejected with fskin::Error: any other exception is an "internal error" in
+// the CLI, and a crash or a hang fails the test binary.
+//
+// FSKIN_FUZZ_CASES (per target, default 250) and FSKIN_FUZZ_SEED (default 1)
+// set the size and seed; FSKIN_FUZZ_VERBOSE=1 prints each case to stderr
+// before running it, to find the one that crashes.
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
+
+#include "fskin/body/character.h"
+#include "fskin/core/error.h"
+#include "fskin/data/dataset.h"
+#include "fskin/data/dataset_builder.h"
+#include "fskin/data/dataset_frame.h"
+#include "fskin/data/inside_test.h"
+#include "fskin/data/pose_generators.h"
+#include "fskin/export/skinned_gltf.h"
+#include "fskin/import/gltf_import.h"
+#include "fskin/import/motion_import.h"
+#include "fskin/io/mesh_io.h"
+#include "fskin/io/npz.h"
+#include "fskin/training/train_config.h"
+#include "fskin/util/atomic_file.h"
+#include "test_util.h"
+
+namespace fskin {
+namespace {
+
+namespace fs = std::filesystem;
+using Random = std::mt19937_64;
+
+int64_t env_int(const char* name, int64_t fallback) {
+  const char* value = std::getenv(name);
+  return value && *value ? std::atoll(value) : fallback;
+}
+
+std::string slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+void spit(const fs::path& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+
+size_t below(Random& rng, size_t n) { return n == 0 ? 0 : std::uniform_int_distribution<size_t>(0, n - 1)(rng); }
+
+// ---- byte mutations ---------------------------------------------------------
+
+std::string mutate_bytes(std::string bytes, Random& rng, std::string& what) {
+  if (bytes.empty()) return "x";
+  const size_t at = below(rng, bytes.size());
+  switch (below(rng, 6)) {
+    case 0: {
+      const size_t flips = 1 + below(rng, 8);
+      for (size_t i = 0; i < flips; ++i) bytes[below(rng, bytes.size())] ^= static_cast<char>(1 << below(rng, 8));
+      what = fmt::format("{} bit flips", flips);
+      break;
+    }
+    case 1: {
+      static const unsigned char special[] = {0x00, 0xff, 0x7f, 0x80, 0x01, 0xfe};
+      const size_t n = 1 + below(rng, 4);
+      for (size_t i = 0; i < n && at + i < bytes.size(); ++i) bytes[at + i] = static_cast<char>(special[below(rng, 6)]);
+      what = fmt::format("special bytes at {}", at);
+      break;
+    }
+    case 2:
+      bytes.resize(at);
+      what = fmt::format("truncated to {}", at);
+      break;
+    case 3: {
+      std::string junk(1 + below(rng, 16), '\0');
+      for (auto& c : junk) c = static_cast<char>(below(rng, 256));
+      bytes.insert(at, junk);
+      what = fmt::format("{} bytes inserted at {}", junk.size(), at);
+      break;
+    }
+    case 4: {
+      const size_t n = std::min(bytes.size() - at, 1 + below(rng, 64));
+      bytes.erase(at, n);
+      what = fmt::format("{} bytes deleted at {}", n, at);
+      break;
+    }
+    default: {
+      const size_t n = std::min(bytes.size() - at, 1 + below(rng, 64));
+      bytes.insert(at, bytes.substr(at, n));
+      what = fmt::format("{} bytes repeated at {}", n, at);
+      break;
+    }
+  }
+  return bytes;
+}
+
+// ---- .npz structure mutations ----------------------------------------------
+
+struct Member {
+  bool is_strings = false;
+  torch::Tensor tensor;
+  std::vector<std::string> strings;
+};
+
+std::map<std::string, Member> read_members(const std::string& path) {
+  io::NpzReader npz(path);
+  std::map<std::string, Member> members;
+  for (const auto& key : npz.keys()) {
+    Member m;
+    try {
+      m.tensor = npz.tensor(key);
+    } catch (const Error&) {
+      m.is_strings = true;
+      m.strings = npz.strings(key);
+    }
+    members[key] = m;
+  }
+  return members;
+}
+
+torch::Tensor mutate_tensor(torch::Tensor t, Random& rng, std::string& what) {
+  t = t.clone();
+  switch (below(rng, 11)) {
+    case 0: what = "as float64"; return t.to(torch::kFloat64);
+    case 1: what = "as int32"; return t.to(torch::kInt32);
+    case 2: what = "as uint8"; return t.to(torch::kUInt8);
+    case 3: what = "as bool"; return t.to(torch::kBool);
+    case 4: what = "flattened"; return t.flatten().contiguous();
+    case 5: what = "extra dimension"; return t.unsqueeze(0).contiguous();
+    case 6:
+      what = "one row fewer";
+      return t.dim() > 0 && t.size(0) > 0 ? t.narrow(0, 0, t.size(0) - 1).contiguous() : t;
+    case 7: what = "empty"; return t.dim() > 0 ? t.narrow(0, 0, 0).contiguous() : t.reshape({0});
+    case 8:
+      what = "last two dimensions swapped";
+      return t.dim() >= 2 ? t.transpose(-1, -2).contiguous() : t;
+    default: {
+      if (t.numel() == 0) return t;
+      const auto flat = t.view({-1});
+      const int64_t i = static_cast<int64_t>(below(rng, static_cast<size_t>(t.numel())));
+      if (t.is_floating_point()) {
+        static const double values[] = {std::nan(""), INFINITY, -INFINITY, 1e30, -1e30, 0.0, 255.0, -1.0};
+        const double v = values[below(rng, 8)];
+        flat[i] = v;
+        what = fmt::format("element {} = {}", i, v);
+      } else if (t.scalar_type() == torch::kBool) {
+        flat[i] = !flat[i].item<bool>();
+        what = fmt::format("element {} negated", i);
+      } else {
+        static const int64_t values[] = {-1, -2, 99, 255, 1 << 20, 2147483647, -2147483647};
+        int64_t v = values[below(rng, 7)];
+        if (t.scalar_type() == torch::kUInt8) v &= 0xff;
+        if (t.scalar_type() == torch::kInt8 || t.scalar_type() == torch::kInt16) v = std::max<int64_t>(-100, std::min<int64_t>(v, 100));
+        flat[i] = v;
+        what = fmt::format("element {} = {}", i, v);
+      }
+      return t;
+    }
+  }
+}
+
+std::string mutate_npz(const fs::path& seed, const fs::path& out, Random& rng, std::string& what) {
+  auto members = read_members(seed.string());
+  auto it = members.begin();
+  std::advance(it, static_cast<long>(below(rng, members.size())));
+  const std::string key = it->first;
+  const size_t op = below(rng, 10);
+  if (op == 0) {
+    members.erase(it);
+    what = "member '" + key + "' removed";
+  } else if (op == 1) {
+    Member extra;
+    extra.tensor = torch::randn({3, 2});
+    members["unexpected_" + key] = extra;
+    what = "member 'unexpected_" + key + "' added";
+  } else if (it->second.is_strings) {
+    auto& s = it->second.strings;
+    switch (below(rng, 4)) {
+      case 0: if (!s.empty()) s.pop_back(); what = "'" + key + "' one string fewer"; break;
+      case 1: s.push_back(s.empty() ? "" : s.front()); what = "'" + key + "' first string repeated"; break;
+      case 2: if (!s.empty()) s[below(rng, s.size())] = ""; what = "'" + key + "' an empty string"; break;
+      default:
+        it->second.is_strings = false;
+        it->second.tensor = torch::zeros({static_cast<int64_t>(s.size())});
+        what = "'" + key + "' numbers instead of strings";
+    }
+  } else {
+    std::string how;
+    it->second.tensor = mutate_tensor(it->second.tensor, rng, how);
+    what = "'" + key + "' " + how;
+  }
+  io::NpzWriter writer;
+  for (const auto& [k, m] : members) {
+    if (m.is_strings) writer.add_strings(k, m.strings);
+    else writer.add(k, m.tensor.contiguous());
+  }
+  writer.save(out.string(), below(rng, 2) == 0);
+  return slurp(out);
+}
+
+// ---- JSON structure mutations -----------------------------------------------
+
+void collect_paths(const nlohmann::json& j, const nlohmann::json::json_pointer& at,
+                   std::vector<nlohmann::json::json_pointer>& out) {
+  out.push_back(at);
+  if (j.is_object())
+    for (auto it = j.begin(); it != j.end(); ++it) collect_paths(it.value(), at / it.key(), out);
+  if (j.is_array())
+    for (size_t i = 0; i < j.size() && i < 64; ++i) collect_paths(j[i], at / i, out);
+}
+
+std::string mutate_json(const std::string& text, Random& rng, std::string& what) {
+  auto j = nlohmann::json::parse(text);
+  std::vector<nlohmann::json::json_pointer> paths;
+  collect_paths(j, nlohmann::json::json_pointer(), paths);
+  const auto path = paths[1 + below(rng, paths.size() - 1)];
+  auto& value = j[path];
+  static const std::vector<nlohmann::json> replacements = {
+      nullptr, true, -1, 0, 1e308, -1e308, 2147483648.0, "text", "", nlohmann::json::array(), nlohmann::json::object(),
+      nlohmann::json::array({1, 2, 3}), nlohmann::json::array({"a", "b"}), 1e-300, 99999999};
+  switch (below(rng, 4)) {
+    case 0: {
+      const auto parent = path.parent_pointer();
+      auto& container = j[parent];
+      if (container.is_object()) container.erase(path.back());
+      else if (container.is_array()) container.erase(container.begin() + static_cast<long>(std::stoul(path.back())));
+      what = "deleted " + path.to_string();
+      break;
+    }
+    case 1:
+      if (value.is_array() && !value.empty()) {
+        value.erase(value.end() - 1);
+        what = "one element fewer at " + path.to_string();
+        break;
+      }
+      [[fallthrough]];
+    case 2:
+      if (value.is_array()) {
+        value.push_back(value.empty() ? nlohmann::json(0) : value.front());
+        what = "one element more at " + path.to_string();
+        break;
+      }
+      [[fallthrough]];
+    default: {
+      const auto& r = replacements[below(rng, replacements.size())];
+      value = r;
+      what = path.to_string() + " = " + r.dump();
+    }
+  }
+  return j.dump(below(rng, 2) ? 2 : -1);
+}
+
+// ---- text line mutations ----------------------------------------------------
+
+std::string mutate_lines(const std::string& text, Random& rng, std::string& what) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  if (lines.empty()) return text;
+  const size_t at = below(rng, lines.size());
+  switch (below(rng, 3)) {
+    case 0: lines.erase(lines.begin() + static_cast<long>(at)); what = fmt::format("line {} deleted", at); break;
+    case 1: lines.insert(lines.begin() + static_cast<long>(at), lines[at]); what = fmt::format("line {} repeated", at); break;
+    default: {
+      static const char* tokens[] = {"nan", "inf", "-1", "1e40", "abc", "99999999", "0", "-2147483649", "", "4294967296"};
+      std::istringstream words(lines[at]);
+      std::vector<std::string> w;
+      for (std::string s; words >> s;) w.push_back(s);
+      if (w.empty()) break;
+      const char* token = tokens[below(rng, 10)];
+      w[below(rng, w.size())] = token;
+      std::string joined;
+      for (const auto& s : w) joined += (joined.empty() ? "" : " ") + s;
+      lines[at] = joined;
+      what = fmt::format("line {} token = '{}'", at, token);
+    }
+  }
+  std::string out;
+  for (const auto& l : lines) out += l + "\n";
+  return out;
+}
+
+// ---- targets ----------------------------------------------------------------
+
+enum class Kind { Npz, Json, Text, Binary };
+
+struct Target {
+  std::string name;
+  fs::path seed;   // a valid file
+  fs::path path;   // where the mutated file goes (the reader's input)
+  Kind kind;
+  std::function<void()> read;
+};
+
+struct Fixture {
+  fs::path dir;
+  std::vector<Target> targets;
+};
+
+const Fixture& fixture() {
+  static const Fixture f = [] {
+    Fixture f;
+    f.dir = testing::temp_dir("input_fuzz");
+    const auto seeds = f.dir / "seeds";
+    fs::create_directories(seeds);
+    CharacterOptions character;
+    character.resolution = 32;
+    const auto model = make_character_model(character);
+    const auto names = model.data().joint_names;
+    const int64_t J = model.num_joints();
+    model.save((seeds / "model.npz").string());
+    auto poses = make_training_poses(names, {1, 4, 2});
+    poses.trans = torch::randn({4, 3}) * 0.1;
+    poses.save((seeds / "poses.npz").string());
+    io::write_mesh((seeds / "mesh.ply").string(), model.template_mesh());
+    io::write_mesh((seeds / "mesh.obj").string(), model.template_mesh());
+    spit(seeds / "ascii.ply",
+         "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+         "element face 4\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+         "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+    write_file_atomically((seeds / "config.json").string(), TrainConfig{}.to_json());
+    SkinnedCharacter rig;
+    rig.mesh = model.template_mesh();
+    rig.weights = model.data().weights;
+    rig.skeleton = model.skeleton();
+    rig.animation = poses;
+    write_skinned_gltf((seeds / "rig.glb").string(), rig);
+    write_skinned_gltf((seeds / "rig.gltf").string(), rig);
+
+    spit(seeds / "walk.bvh", R"(HIERARCHY
+ROOT pelvis
+{
+  OFFSET 0 90 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT left_hip
+  {
+    OFFSET 8 -5 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT left_knee
+    {
+      OFFSET 0 -40 0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET 0 -40 0
+      }
+    }
+  }
+  JOINT spine1
+  {
+    OFFSET 0 10 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.0333333
+0 90 0  0 0 0  0 0 0  0 0 0  0 0 0
+1 91 2  10 0 5  20 0 0  0 45 0  5 5 5
+2 92 4  20 0 10  40 0 0  0 90 0  10 10 10
+)");
+    {
+      io::NpzWriter amass;
+      amass.add("poses", (torch::randn({5, 3 * J}) * 0.2).contiguous());
+      amass.add("trans", torch::randn({5, 3}).contiguous());
+      amass.add("mocap_framerate", torch::tensor({60.0}));
+      amass.save((seeds / "amass.npz").string());
+    }
+    const auto data = f.dir / "data";
+    const bool have_dataset = inside_test_available();
+    if (have_dataset) {
+      DatasetBuildOptions options;
+      options.out_dir = data.string();
+      options.model_source = (seeds / "model.npz").string();
+      options.sampling.uniform_points = 64;
+      options.sampling.surface_points = 64;
+      options.val_fraction = 0.25;
+      options.test_fraction = 0.25;
+      options.progress = false;
+      build_dataset(model, poses, PoseSet{}, options);
+      fs::copy_file(data / "manifest.json", seeds / "manifest.json");
+      for (const auto& entry : fs::directory_iterator(data))
+        if (entry.path().extension() == ".npz" && entry.path().filename() != "canonical.npz") {
+          fs::copy_file(entry.path(), seeds / "frame.npz");
+          break;
+        }
+    }
+    const auto in = [&](const std::string& name) { return f.dir / ("case_" + name); };
+    f.targets.push_back({"model", seeds / "model.npz", in("model.npz"), Kind::Npz, [p = in("model.npz"), J] {
+                           const auto m = BodyModel::load(p.string());
+                           m.pose(torch::zeros({1, m.num_joints(), 3}));
+                           (void)J;
+                         }});
+    f.targets.push_back({"poses", seeds / "poses.npz", in("poses.npz"), Kind::Npz, [p = in("poses.npz"), J, names] {
+                           PoseSet::load(p.string()).validate(p.string(), J, names);
+                         }});
+    f.targets.push_back({"binary PLY", seeds / "mesh.ply", in("mesh.ply"), Kind::Binary,
+                         [p = in("mesh.ply")] { io::read_mesh(p.string()); }});
+    f.targets.push_back({"ASCII PLY", seeds / "ascii.ply", in("ascii.ply"), Kind::Text,
+                         [p = in("ascii.ply")] { io::read_mesh(p.string()); }});
+    f.targets.push_back({"OBJ", seeds / "mesh.obj", in("mesh.obj"), Kind::Text,
+                         [p = in("mesh.obj")] { io::read_mesh(p.string()); }});
+    f.targets.push_back({"config", seeds / "config.json", in("config.json"), Kind::Json,
+                         [p = in("config.json")] { TrainConfig::load(p.string(), TrainConfig{}).validate(); }});
+    f.targets.push_back({"glb", seeds / "rig.glb", in("rig.glb"), Kind::Binary,
+                         [p = in("rig.glb")] { import_gltf(p.string()); }});
+    f.targets.push_back({"glTF JSON", seeds / "rig.gltf", in("rig.gltf"), Kind::Json,
+                         [p = in("rig.gltf")] { import_gltf(p.string()); }});
+    const auto skeleton = model.skeleton();
+    f.targets.push_back({"BVH", seeds / "walk.bvh", in("walk.bvh"), Kind::Text,
+                         [p = in("walk.bvh"), skeleton] { import_bvh(p.string(), skeleton); }});
+    f.targets.push_back({"AMASS", seeds / "amass.npz", in("amass.npz"), Kind::Npz,
+                         [p = in("amass.npz"), skeleton] { import_amass(p.string(), skeleton); }});
+    if (have_dataset) {
+      f.targets.push_back({"dataset frame", seeds / "frame.npz", in("frame.npz"), Kind::Npz,
+                           [p = in("frame.npz")] { DatasetFrame::load(p.string()); }});
+      f.targets.push_back({"manifest", seeds / "manifest.json", data / "manifest.json", Kind::Json,
+                           [d = data] { Dataset::load(d.string(), "train"); }});
+    }
+    return f;
+  }();
+  return f;
+}
+
+class InputFuzz : public ::testing::TestWithParam<int> {};
+
+TEST_P(InputFuzz, MutatedInputsAreAcceptedOrRejectedWithAnFskinError) {
+  const auto& f = fixture();
+  const size_t index = static_cast<size_t>(GetParam());
+  if (index >= f.targets.size()) GTEST_SKIP() << "built without Embree: no dataset to mutate";
+  const auto& target = f.targets[index];
+  const int64_t cases = env_int("FSKIN_FUZZ_CASES", 250);
+  const bool verbose = env_int("FSKIN_FUZZ_VERBOSE", 0) != 0;
+  Random rng(static_cast<uint64_t>(env_int("FSKIN_FUZZ_SEED", 1)) * 1000003u + index);
+  const std::string seed_bytes = slurp(target.seed);
+  int64_t accepted = 0, rejected = 0;
+  std::vector<std::string> internal;
+  double slowest = 0;
+  for (int64_t c = 0; c < cases; ++c) {
+    std::string what, bytes;
+    const bool structural = below(rng, 2) == 0;
+    if (structural && target.kind == Kind::Npz) {
+      bytes = mutate_npz(target.seed, f.dir / "structure.npz", rng, what);
+    } else if (structural && target.kind == Kind::Json) {
+      bytes = mutate_json(seed_bytes, rng, what);
+    } else if (structural && target.kind == Kind::Text) {
+      bytes = mutate_lines(seed_bytes, rng, what);
+    } else {
+      bytes = mutate_bytes(seed_bytes, rng, what);
+    }
+    spit(target.path, bytes);
+    if (verbose) std::fprintf(stderr, "fuzz %s case %lld: %s\n", target.name.c_str(), static_cast<long long>(c), what.c_str());
+    const auto start = std::chrono::steady_clock::now();
+    try {
+      target.read();
+      ++accepted;
+    } catch (const Error&) {
+      ++rejected;
+    } catch (const std::exception& e) {
+      std::string message = e.what();
+      message = message.substr(0, std::min(message.find('\n'), size_t{300}));
+      internal.push_back(fmt::format("case {} ({}): {}", c, what, message));
+      spit(f.dir / fmt::format("internal_{}_{}", index, c), bytes);
+    }
+    slowest = std::max(slowest, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  spit(target.path, seed_bytes);  // the manifest target mutates the dataset in place
+  std::string examples;
+  for (size_t i = 0; i < internal.size() && i < 8; ++i) examples += "\n  " + internal[i];
+  EXPECT_TRUE(internal.empty()) << target.name << ": " << internal.size() << " of " << cases
+                                << " cases raised an error that is not fskin::Error (files kept in " << f.dir << "):"
+                                << examples;
+  std::printf("%s: %lld cases, %lld accepted, %lld rejected with fskin::Error, %zu internal, slowest %.3f s\n",
+              target.name.c_str(), static_cast<long long>(cases), static_cast<long long>(accepted),
+              static_cast<long long>(rejected), internal.size(), slowest);
+}
+
+std::string target_name(const ::testing::TestParamInfo<int>& info) {
+  static const char* names[] = {"model", "poses", "binary_ply", "ascii_ply", "obj", "config",
+                                "glb", "gltf_json", "bvh", "amass", "dataset_frame", "manifest"};
+  return names[info.param];
+}
+
+INSTANTIATE_TEST_SUITE_P(Targets, InputFuzz, ::testing::Range(0, 12), target_name);
+
+}  // namespace
+}  // namespace fskin
