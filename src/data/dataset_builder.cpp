@@ -178,6 +178,7 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
     copy["complete"] = complete;
     write_file_atomically(manifest_path.string(), copy.dump(2) + "\n");
   };
+  remove_stale_temporaries(dir.string());
   write_manifest(false);
 
   const fs::path canonical_path = dir / "canonical.npz";

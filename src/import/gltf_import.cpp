@@ -124,6 +124,13 @@ ImportedCharacter import_gltf(const std::string& path, const ImportOptions& opti
       parent[child] = n;
     }
   for (int n = 0; n < num_nodes; ++n) {
+    const auto& node = model.nodes[n];
+    FSKIN_CHECK(node.mesh >= -1 && node.mesh < static_cast<int>(model.meshes.size()),
+                "{}: node {} refers to mesh {} of {}", path, n, node.mesh, model.meshes.size());
+    FSKIN_CHECK(node.skin >= -1 && node.skin < static_cast<int>(model.skins.size()),
+                "{}: node {} refers to skin {} of {}", path, n, node.skin, model.skins.size());
+  }
+  for (int n = 0; n < num_nodes; ++n) {
     int steps = 0;
     for (int a = parent[n]; a >= 0; a = parent[a])
       FSKIN_CHECK(++steps <= num_nodes, "{}: the node tree has a cycle through node {}", path, n);

@@ -195,6 +195,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
               "train: validate_every = {} but no validation frames were given", config.validate_every);
   const std::string log_file = log_path(options.run_dir), validation_file = validation_log_path(options.run_dir);
   std::optional<BestScore> best;
+  remove_stale_temporaries(options.run_dir);
   if (options.resume) {
     truncate_log(log_file, step);
     if (fs::exists(validation_file)) truncate_log(validation_file, step);

@@ -16,6 +16,11 @@ void write_file_atomically(const std::string& path, const std::string& bytes);
 void write_file_atomically(const std::string& path,
                            const std::function<void(std::ostream&)>& write);
 
+// Removes the temporaries ("*.tmp-<pid>") in `dir` that no running process
+// owns: what a run killed in the middle of a write (kill -9, power loss)
+// leaves behind. Returns how many were removed.
+int remove_stale_temporaries(const std::string& dir);
+
 // Whole file as bytes; throws fskin::Error naming `path` if it cannot be read.
 std::string read_file(const std::string& path);
 
