@@ -8,7 +8,7 @@ export CCACHE_SLOPPINESS := pch_defines,time_macros,include_file_mtime,include_f
 # Paths relative to the checkout, so every clone shares the cache.
 export CCACHE_BASEDIR ?= $(CURDIR)
 
-.PHONY: setup configure build test demo demo-quadruped bench clean
+.PHONY: setup configure build test demo demo-quadruped bench sanitize clean
 
 setup:
 	bash scripts/setup.sh
@@ -33,6 +33,18 @@ demo-quadruped: build
 
 bench: build
 	$(BUILD_DIR)/fskin_bench
+
+# The test suite built with AddressSanitizer + UndefinedBehaviorSanitizer in
+# build-sanitize/ (not part of `make test`: slower to build and to run).
+# Leak checking is off: LibTorch keeps global allocations until exit.
+SANITIZE_DIR ?= build-sanitize
+sanitize: setup
+	cmake -S . -B $(SANITIZE_DIR) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFSKIN_SANITIZE=ON \
+	  -DFSKIN_BUILD_BENCHMARKS=OFF $(CMAKE_FLAGS)
+	cmake --build $(SANITIZE_DIR) -j $(JOBS)
+	cd $(SANITIZE_DIR) && ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
+	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  ctest --output-on-failure -j $(JOBS) --timeout 1800
 
 clean:
 	rm -rf $(BUILD_DIR)
