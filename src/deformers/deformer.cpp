@@ -85,7 +85,8 @@ DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tens
   std::vector<torch::Tensor> xs;
   if (!wants_grad) out.x_canonical = torch::empty({B, N, I, 3}, x_posed.options());
   out.valid = torch::empty({B, N, I}, x_posed.options().dtype(torch::kBool));
-  double iteration_sum = 0;
+  // Summed on the device and read once at the end: no host sync per chunk.
+  auto iteration_sum = torch::zeros({}, x_posed.options().dtype(torch::kFloat64));
   for (int64_t begin = 0; begin < N; begin += options_.chunk_points) {
     const int64_t n = std::min(options_.chunk_points, N - begin);
     const auto chunk = x_posed.narrow(1, begin, n);
@@ -96,7 +97,7 @@ DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tens
                     wants_grad && options_.gradient == GradientMode::Approximate);
     }();
     st.search_seconds += search_timer.elapsed();
-    iteration_sum += found.iterations.sum().item<double>();
+    iteration_sum += found.iterations.sum().to(torch::kFloat64);
 
     Stopwatch filter_timer(cuda);
     if (options_.root_box) found.valid &= options_.root_box->contains(found.x);
@@ -119,8 +120,9 @@ DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tens
   st.points = B * N;
   st.candidates = out.valid.numel();
   if (st.points > 0) {
-    st.mean_valid = out.valid.sum().item<double>() / static_cast<double>(st.points);
-    st.mean_iterations = iteration_sum / static_cast<double>(st.candidates);
+    const auto totals = torch::stack({out.valid.sum().to(torch::kFloat64), iteration_sum}).cpu();  // one sync
+    st.mean_valid = totals[0].item<double>() / static_cast<double>(st.points);
+    st.mean_iterations = totals[1].item<double>() / static_cast<double>(st.candidates);
   }
   return out;
 }
