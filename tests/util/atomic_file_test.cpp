@@ -1,6 +1,8 @@
 #include "fskin/util/atomic_file.h"
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <filesystem>
 
@@ -43,6 +45,24 @@ TEST(AtomicFile, UnwritableTargetThrowsAndKeepsNothing) {
 
 TEST(AtomicFile, ReadMissingFileNamesIt) {
   testing::expect_error([] { read_file("/nonexistent/x.bin"); }, {"/nonexistent/x.bin", "no such file"});
+}
+
+// What a killed writer leaves: a temporary named for a process that is gone.
+TEST(AtomicFile, StaleTemporariesOfDeadProcessesAreRemoved) {
+  const auto dir = testing::temp_dir("atomic_stale");
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  ::waitpid(child, nullptr, 0);  // its pid now names no process
+  const auto stale = dir / ("checkpoint-00000010.fskin.tmp-" + std::to_string(child));
+  const auto mine = dir / ("frame.npz.tmp-" + std::to_string(::getpid()));
+  const auto other = dir / "notes.tmp-abc";
+  for (const auto& p : {stale, mine, other}) write_file_atomically(p.string(), "partial");
+  EXPECT_EQ(remove_stale_temporaries(dir.string()), 1);
+  EXPECT_FALSE(std::filesystem::exists(stale));
+  EXPECT_TRUE(std::filesystem::exists(mine));   // a live writer's
+  EXPECT_TRUE(std::filesystem::exists(other));  // not a temporary of ours
+  EXPECT_EQ(remove_stale_temporaries((dir / "missing").string()), 0);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

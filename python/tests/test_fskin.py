@@ -1,0 +1,153 @@
+"""The Python module against the library and the CLI it wraps."""
+import math
+import os
+import subprocess
+
+import numpy as np
+import pytest
+import torch
+
+import fskin
+
+CLI = os.environ.get("FSKIN_CLI", "fskin")
+
+
+def read_binary_ply_vertices(path):
+    data = open(path, "rb").read()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    header = data[:end].decode()
+    count = int(header.split("element vertex ")[1].split("\n")[0])
+    vertex_props = header.split("element vertex")[1].split("element face")[0].count("property")
+    assert "property float x" in header
+    stride = 4 * 3 + (vertex_props - 3)  # float xyz, then uchar colours if any
+    rows = np.frombuffer(data[end:end + count * stride], dtype=np.uint8).reshape(count, stride)
+    return rows[:, :12].copy().view(np.float32).reshape(count, 3)
+
+
+def test_version_and_errors_are_fskins():
+    assert fskin.__version__.count(".") == 2
+    assert issubclass(fskin.Error, RuntimeError)
+    with pytest.raises(fskin.Error, match="missing.npz"):
+        fskin.BodyModel.load("/nonexistent/missing.npz")
+
+
+def test_body_model_poses_like_the_cli(tmp_path):
+    body = fskin.humanoid(resolution=40)
+    model = tmp_path / "model.npz"
+    body.save(str(model))
+    torch.manual_seed(0)
+    pose = torch.randn(1, body.num_joints, 3) * 0.3
+    trans = torch.tensor([[0.1, -0.2, 0.3]])
+    # The same pose through the CLI: a pose file, `fskin pose`, the PLY it writes.
+    poses = tmp_path / "pose.npz"
+    np.savez(poses, poses=pose.numpy(), trans=trans.numpy())
+    out = tmp_path / "posed.ply"
+    subprocess.run([CLI, "pose", "--model", str(model), "--pose", str(poses), "--out", str(out)], check=True,
+                   capture_output=True)
+    vertices, joints, bones = fskin.BodyModel.load(str(model)).forward(pose, trans=trans)
+    assert vertices.shape == (1, body.num_vertices, 3)
+    assert joints.shape == (1, body.num_joints, 3)
+    assert bones.shape == (1, body.num_joints, 4, 4)
+    np.testing.assert_allclose(vertices[0].numpy(), read_binary_ply_vertices(out), atol=1e-5)
+    assert body.joint_names[0] == "pelvis" and body.parents[0] == -1
+
+
+def test_body_model_gradients_reach_the_callers_graph():
+    body = fskin.quadruped(resolution=60)
+    pose = torch.zeros(2, body.num_joints, 3, requires_grad=True)
+    vertices, _, _ = body.forward(pose)
+    vertices[:, :, 1].sum().backward()
+    assert pose.grad is not None and pose.grad.abs().sum() > 0
+
+
+def chain(dtype=torch.float64):
+    """A 2-bone chain along +x, bones [-1, 0] and [0, 1], with smooth weights on a voxel grid."""
+    points = torch.tensor([[-1.2, -0.4, -0.4], [1.2, 0.4, 0.4]], dtype=dtype)
+    box = fskin.VoxelBox.fit(points, 24)
+    centres = box.voxel_centres().to(dtype)
+    w1 = torch.sigmoid(centres[..., 0] * 8)
+    grid = torch.stack([1 - w1, w1], -1).contiguous()
+    return grid, box
+
+
+def bend(angle, dtype=torch.float64):
+    """Bone 0 fixed, bone 1 turned by `angle` about z through the origin."""
+    c, s = math.cos(angle), math.sin(angle)
+    b1 = torch.tensor([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], dtype=dtype)
+    return torch.stack([torch.eye(4, dtype=dtype), b1]).unsqueeze(0)
+
+
+def canonical_points(n, dtype=torch.float64):
+    g = torch.Generator().manual_seed(3)
+    x = torch.rand(n, generator=g, dtype=dtype) * 1.8 - 0.9
+    yz = (torch.rand(n, 2, generator=g, dtype=dtype) - 0.5) * 0.3
+    return torch.cat([x[:, None], yz], 1).unsqueeze(0)
+
+
+def test_deformer_finds_the_canonical_points_again():
+    grid, box = chain()
+    deformer = fskin.FastSnarfDeformer(grid, box)
+    bones = bend(0.9)
+    xc = canonical_points(500)
+    xd = deformer.deform(xc, bones)
+    roots, valid = deformer.forward(xd, bones)
+    assert roots.shape == (1, 500, 2, 3) and valid.shape == (1, 500, 2)
+    error = ((roots - xc.unsqueeze(2)).norm(dim=-1) + (~valid) * 1e9).min(-1).values
+    assert (error < 1e-5).double().mean() > 0.99
+
+
+def test_deformer_gradcheck_float64():
+    grid, box = chain()
+    bones = bend(0.6)
+    for exact in (True, False):
+        deformer = fskin.FastSnarfDeformer(grid, box, exact_gradient=exact, tolerance=1e-12)
+        xd = deformer.deform(canonical_points(6), bones).detach()
+        _, valid = deformer.forward(xd, bones)
+        assert valid.any(-1).all()  # every point has its root
+        mask = valid.unsqueeze(-1).double()
+
+        def roots_of_points(x):
+            return deformer.forward(x, bones)[0] * mask
+
+        def roots_of_bones(b):
+            return deformer.forward(xd, b)[0] * mask
+
+        x = xd.clone().requires_grad_(True)
+        b = bones.clone().requires_grad_(True)
+        if exact:  # the exact implicit gradient (SNARF eq. 14) is the true derivative
+            assert torch.autograd.gradcheck(roots_of_points, (x,), eps=1e-6, atol=1e-5)
+            assert torch.autograd.gradcheck(roots_of_bones, (b,), eps=1e-6, atol=1e-5)
+        else:  # Broyden's inverse Jacobian (Fast-SNARF eq. 17): close to the true derivative, not equal
+            analytic = torch.autograd.functional.jacobian(roots_of_points, x)
+            numeric = torch.zeros_like(analytic)
+            eps = 1e-6
+            for i in range(x.numel()):
+                step = torch.zeros_like(x).view(-1)
+                step[i] = eps
+                step = step.view_as(x)
+                numeric.view(-1, x.numel())[:, i] = (
+                    (roots_of_points(x.detach() + step) - roots_of_points(x.detach() - step)) / (2 * eps)).view(-1)
+            relative = (analytic - numeric).norm() / numeric.norm()
+            assert relative < 0.05, relative
+
+
+def test_bad_input_raises_fskin_error_with_the_message():
+    grid, box = chain()
+    deformer = fskin.FastSnarfDeformer(grid, box)
+    with pytest.raises(fskin.Error, match="bones"):
+        deformer.forward(torch.zeros(1, 10, 3, dtype=torch.float64), torch.eye(4, dtype=torch.float64).expand(1, 3, 4, 4))
+    with pytest.raises(fskin.Error, match="finite"):
+        deformer.forward(torch.full((1, 2, 3), float("nan"), dtype=torch.float64), bend(0.1))
+    with pytest.raises(fskin.Error, match="start_bones"):
+        fskin.FastSnarfDeformer(grid, box, start_bones="nine")
+    with pytest.raises(fskin.Error, match="length_unit"):
+        fskin.FastSnarfDeformer(grid, box, length_unit=-1.0)
+
+
+def test_character_size_and_box_follow_the_character():
+    body = fskin.quadruped(length=3.0, resolution=60)
+    size = fskin.character_size(body.v_template)
+    assert abs(size - 3.0) < 0.1
+    box = fskin.VoxelBox.fit(body.v_template, 32)
+    assert max(box.shape) == 32
+    assert bool(box.contains(body.v_template).all())
