@@ -142,6 +142,15 @@ PYBIND11_MODULE(_fskin, m) {
           },
           py::arg("points"), py::arg("longest_voxels") = 32, py::arg("padding") = 0.05,
           "Box around points [N, 3]: `longest_voxels` along the longest side, near-cubic voxels")
+      .def_static(
+          "around",
+          [](const torch::Tensor& points, std::tuple<int64_t, int64_t, int64_t> shape, double padding, double z_factor) {
+            return VoxelBox::around(points, fskin::GridShape{std::get<0>(shape), std::get<1>(shape), std::get<2>(shape)},
+                                    padding, z_factor);
+          },
+          py::arg("points"), py::arg("shape"), py::arg("padding") = 1.2, py::arg("z_factor") = 4.0,
+          "The papers' box: offset -centre, scale 1 / (max extent / 2 * padding), times z_factor along z; "
+          "shape (D, H, W)")
       .def_property_readonly("shape",
                              [](const VoxelBox& b) {
                                return py::make_tuple(b.shape.depth, b.shape.height, b.shape.width);

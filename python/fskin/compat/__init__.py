@@ -1,0 +1,1 @@
+"""Drop-in replacements for code written against other projects' APIs."""
