@@ -19,4 +19,5 @@ from ._fskin import (  # noqa: F401
     character_size,
     humanoid,
     quadruped,
+    train,
 )

@@ -16,6 +16,7 @@
 #include "fskin/fields/voxel_skinning_field.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/geometry/voxel_box.h"
+#include "fskin/training/train_run.h"
 #include "fskin/version.h"
 
 namespace py = pybind11;
@@ -133,6 +134,40 @@ PYBIND11_MODULE(_fskin, m) {
   m.def(
       "character_size", [](const torch::Tensor& points) { return fskin::character_size(points); }, py::arg("points"),
       "Longest side of the points' bounding box (the unit every default length follows)");
+
+  m.def(
+      "train",
+      [](const std::string& data, const std::string& out, int64_t steps, const std::string& method,
+         const std::vector<std::string>& settings, const std::string& config, bool full, bool resume, bool progress) {
+        fskin::TrainRunRequest request;
+        request.data = data;
+        request.out = out;
+        request.steps = steps;
+        request.method = method;
+        request.settings = settings;
+        request.config_path = config;
+        request.full = full;
+        request.resume = resume;
+        request.progress = progress;
+        fskin::TrainRunResult run;
+        {
+          py::gil_scoped_release no_gil;
+          const fskin::StopSignal stop;  // Ctrl-C: finish the step, checkpoint, return
+          request.stop = &stop;
+          run = fskin::train_run(request);
+        }
+        const auto& r = run.result;
+        return py::dict(py::arg("method") = run.config.method, py::arg("frames") = run.frames,
+                        py::arg("first_step") = r.first_step, py::arg("last_step") = r.last_step,
+                        py::arg("first_loss") = r.first_loss, py::arg("last_loss") = r.last_loss,
+                        py::arg("seconds") = r.seconds, py::arg("stopped") = r.stopped,
+                        py::arg("best_step") = r.best_step, py::arg("best_iou_surf") = r.best_iou_surf);
+      },
+      py::arg("data"), py::arg("out"), py::arg("steps") = -1, py::arg("method") = "",
+      py::arg("settings") = std::vector<std::string>{}, py::arg("config") = "", py::arg("full") = false,
+      py::arg("resume") = false, py::arg("progress") = false,
+      "Train a run on a dataset directory (`fskin data build`) into `out`, as `fskin train` does; settings are "
+      "key=value config overrides. Returns the losses, steps and time.");
 
   py::class_<VoxelBox>(m, "VoxelBox", "The canonical box of a voxel skinning grid (docs/conventions.md)")
       .def_static(

@@ -3,13 +3,9 @@
 #include <filesystem>
 
 #include "cli/commands.h"
-#include "fskin/core/error.h"
-#include "fskin/data/dataset.h"
-#include "fskin/evaluation/evaluation_frame.h"
-#include "fskin/training/dataset_source.h"
 #include "fskin/models/method.h"
 #include "fskin/training/stop_signal.h"
-#include "fskin/training/trainer.h"
+#include "fskin/training/train_run.h"
 
 namespace fskin::cli {
 
@@ -33,30 +29,26 @@ void register_train(CLI::App& app) {
   cmd->add_flag("--resume", opt->resume, "continue from the newest intact checkpoint in --out");
   cmd->add_flag("--quiet", opt->quiet, "no progress bar");
   cmd->callback([opt] {
-    const auto saved = (std::filesystem::path(opt->out) / "config.json").string();
-    TrainConfig config = opt->full ? TrainConfig::full() : TrainConfig{};
-    if (!opt->method.empty()) config.use_method(opt->method);
-    if (opt->resume && std::filesystem::exists(saved)) config = TrainConfig::load_run(saved);
-    if (!opt->config.empty()) config = TrainConfig::load(opt->config, config);
-    if (!opt->data.empty()) config.data = std::filesystem::absolute(opt->data).string();
-    if (!opt->method.empty()) config.method = opt->method;
-    if (opt->steps >= 0) config.steps = opt->steps;
-    for (const auto& a : opt->assignments) config.set(a);
-    config.validate();
-    FSKIN_CHECK(!config.data.empty(), "train: no --data given (and no saved run config in {})", opt->out);
-
-    const auto dataset = Dataset::load(config.data, "train");
-    const DatasetBatchSource source(dataset);
-    std::vector<OccupancyFrame> validation;
-    if (config.validate_every > 0) {
-      validation = evaluation_frames(Dataset::load(config.data, "val"));
-      if (static_cast<int64_t>(validation.size()) > config.validation_frames) validation.resize(config.validation_frames);
-    }
     StopSignal stop;
-    std::printf("training %s on %lld frames of %s for %lld steps -> %s\n", config.method.c_str(),
-                static_cast<long long>(dataset.size()), config.data.c_str(), static_cast<long long>(config.steps),
-                opt->out.c_str());
-    const auto result = train(config, source, {opt->out, opt->resume, !opt->quiet, &stop, &validation});
+    TrainRunRequest request;
+    request.data = opt->data;
+    request.out = opt->out;
+    request.method = opt->method;
+    request.config_path = opt->config;
+    request.steps = opt->steps;
+    request.settings = opt->assignments;
+    request.full = opt->full;
+    request.resume = opt->resume;
+    request.progress = !opt->quiet;
+    request.stop = &stop;
+    const auto run = train_run(request, [&](const TrainConfig& config, int64_t frames) {
+      std::printf("training %s on %lld frames of %s for %lld steps -> %s\n", config.method.c_str(),
+                  static_cast<long long>(frames), config.data.c_str(), static_cast<long long>(config.steps),
+                  opt->out.c_str());
+      std::fflush(stdout);
+    });
+    const auto& config = run.config;
+    const auto& result = run.result;
     if (result.skinning_prior_loss > 0) {
       std::printf("skinning warm start: %lld steps on the skeleton's nearest-bone prior, cross-entropy %.3f\n",
                   static_cast<long long>(config.skinning_prior_steps), result.skinning_prior_loss);
@@ -66,8 +58,8 @@ void register_train(CLI::App& app) {
                 result.last_loss, result.seconds,
                 result.seconds > 0 ? static_cast<double>(result.last_step - result.first_step) / result.seconds : 0.0);
     if (result.best_step >= 0) {
-      std::printf("best on %zu val frames: step %lld, IoU_surf %.4f (checkpoint-best.fskin; --checkpoint best)\n",
-                  validation.size(), static_cast<long long>(result.best_step), result.best_iou_surf);
+      std::printf("best on %lld val frames: step %lld, IoU_surf %.4f (checkpoint-best.fskin; --checkpoint best)\n",
+                  static_cast<long long>(run.validation_frames), static_cast<long long>(result.best_step), result.best_iou_surf);
     }
   });
 }

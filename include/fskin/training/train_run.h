@@ -1,0 +1,41 @@
+#pragma once
+// A training run as `fskin train` and `fskin.train()` start it: the config
+// from the defaults (or the full-size ones), a saved run's config when
+// resuming, a JSON file and key=value settings, in that order; the dataset's
+// train split; the validation frames when the config validates. One
+// implementation for the CLI and the Python module.
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "fskin/training/stop_signal.h"
+#include "fskin/training/train_config.h"
+#include "fskin/training/trainer.h"
+
+namespace fskin {
+
+struct TrainRunRequest {
+  std::string data;         // dataset directory; empty: the resumed run's
+  std::string out;          // run directory
+  std::string method;       // empty: the config's
+  std::string config_path;  // JSON overlaid on the defaults; empty: none
+  int64_t steps = -1;       // < 0: the config's
+  std::vector<std::string> settings;  // key=value, applied last
+  bool full = false;        // start from TrainConfig::full()
+  bool resume = false;      // continue from the newest intact checkpoint in out
+  bool progress = true;
+  const StopSignal* stop = nullptr;
+};
+
+struct TrainRunResult {
+  TrainConfig config;
+  int64_t frames = 0;             // training frames
+  int64_t validation_frames = 0;  // frames the best checkpoint is chosen on
+  TrainResult result;
+};
+
+// on_start(config, frames) runs once the data is loaded, before the first step.
+TrainRunResult train_run(const TrainRunRequest& request,
+                         const std::function<void(const TrainConfig&, int64_t frames)>& on_start = {});
+
+}  // namespace fskin
