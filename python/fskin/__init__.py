@@ -17,6 +17,7 @@ from ._fskin import (  # noqa: F401
     VoxelBox,
     __version__,
     character_size,
+    evaluate,
     humanoid,
     quadruped,
     train,

@@ -16,6 +16,7 @@
 #include "fskin/fields/voxel_skinning_field.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/geometry/voxel_box.h"
+#include "fskin/inference/run_evaluation.h"
 #include "fskin/training/train_run.h"
 #include "fskin/version.h"
 
@@ -168,6 +169,35 @@ PYBIND11_MODULE(_fskin, m) {
       py::arg("resume") = false, py::arg("progress") = false,
       "Train a run on a dataset directory (`fskin data build`) into `out`, as `fskin train` does; settings are "
       "key=value config overrides. Returns the losses, steps and time.");
+
+  m.def(
+      "evaluate",
+      [](const std::string& run, const std::string& split, const std::string& data, const std::string& checkpoint,
+         int64_t max_frames, bool write_json) {
+        fskin::RunEvaluationRequest request;
+        request.run = run;
+        request.split = split;
+        request.data = data;
+        request.checkpoint = checkpoint;
+        request.max_frames = max_frames;
+        request.progress = false;
+        request.write_json = write_json;
+        fskin::RunEvaluation result;
+        {
+          py::gil_scoped_release no_gil;
+          result = fskin::evaluate_run(request);
+        }
+        py::list frames;
+        for (const auto& f : result.metrics.frames)
+          frames.append(py::dict(py::arg("frame") = f.frame, py::arg("iou_bbox") = f.iou_bbox,
+                                 py::arg("iou_surf") = f.iou_surf, py::arg("mean_valid") = f.mean_valid));
+        return py::dict(py::arg("method") = result.method, py::arg("step") = result.step,
+                        py::arg("checkpoint") = result.checkpoint, py::arg("mean_iou_bbox") = result.metrics.mean_iou_bbox,
+                        py::arg("mean_iou_surf") = result.metrics.mean_iou_surf, py::arg("frames") = frames);
+      },
+      py::arg("run"), py::arg("split") = "test-within", py::arg("data") = "", py::arg("checkpoint") = "latest",
+      py::arg("max_frames") = -1, py::arg("write_json") = false,
+      "IoU_bbox / IoU_surf of a trained run on a split, as `fskin eval` computes them");
 
   py::class_<VoxelBox>(m, "VoxelBox", "The canonical box of a voxel skinning grid (docs/conventions.md)")
       .def_static(

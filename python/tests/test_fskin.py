@@ -174,5 +174,14 @@ def test_training_from_python_lowers_the_loss_like_the_cli(tmp_path):
     py_lines = [json.loads(l) for l in open(tmp_path / "run" / "log.jsonl")]
     assert len(lines) == len(py_lines) == 100
     assert abs(lines[-1]["bce"] - py_lines[-1]["bce"]) < 1e-4 * max(1.0, abs(lines[-1]["bce"]))
+    # Python and the CLI report the same IoU on the same run and split.
+    scores = fskin.evaluate(str(tmp_path / "cli_run"), "val")
+    run("eval", str(tmp_path / "cli_run"), "--split", "val", "--quiet")
+    cli_scores = json.load(open(tmp_path / "cli_run" / "eval-val.json"))
+    assert scores["step"] == 100 and len(scores["frames"]) == cli_scores["frames"] > 0
+    assert abs(scores["mean_iou_surf"] - cli_scores["mean_iou_surf"]) < 1e-9
+    assert abs(scores["mean_iou_bbox"] - cli_scores["mean_iou_bbox"]) < 1e-9
+    with pytest.raises(fskin.Error, match="test-sideways"):
+        fskin.evaluate(str(tmp_path / "cli_run"), "test-sideways")
     with pytest.raises(fskin.Error, match="no_such_key"):
         fskin.train(str(data), str(tmp_path / "bad"), steps=1, settings=["no_such_key=1"])

@@ -1,16 +1,8 @@
 // fskin eval: IoU_bbox / IoU_surf of a trained run on a test split.
-#include <algorithm>
 #include <cstdio>
-#include <filesystem>
-
-#include <nlohmann/json.hpp>
 
 #include "cli/commands.h"
-#include "fskin/core/error.h"
-#include "fskin/data/dataset.h"
-#include "fskin/evaluation/evaluation.h"
-#include "fskin/inference/trained_run.h"
-#include "fskin/util/atomic_file.h"
+#include "fskin/inference/run_evaluation.h"
 
 namespace fskin::cli {
 
@@ -31,26 +23,17 @@ void register_eval(CLI::App& app) {
                   "which checkpoint: latest (default), best (on the val split, needs validate_every) or a step");
   cmd->add_flag("--quiet", opt->quiet, "no progress bar");
   cmd->callback([opt] {
-    std::string split = opt->split;
-    std::replace(split.begin(), split.end(), '-', '_');
-    const auto checkpoint = CheckpointChoice::parse(opt->checkpoint);
-    auto run = TrainedRun::load(opt->run, opt->data, checkpoint);
-    const auto& config = run.config;
-    const auto step = run.step;
-    auto& model = run.model;
-    const auto test_set = Dataset::load(run.data_dir, split);
-    auto frames = evaluation_frames(test_set);
-    if (opt->max_frames >= 0 && opt->max_frames < static_cast<int64_t>(frames.size())) frames.resize(opt->max_frames);
-    const auto result = evaluate(*model, frames, opt->split, config.eval_chunk_points, !opt->quiet);
-    const auto out = (std::filesystem::path(opt->run) / ("eval-" + opt->split + ".json")).string();
-    auto json = nlohmann::json::parse(result.to_json());
-    json["method"] = config.method;
-    json["step"] = step;
-    json["checkpoint"] = checkpoint.describe();
-    write_file_atomically(out, json.dump(2) + "\n");
-    std::printf("%s, step %lld, split %s (%zu frames)\n%s", config.method.c_str(), static_cast<long long>(step),
-                opt->split.c_str(), frames.size(), result.table().c_str());
-    std::printf("wrote %s\n", out.c_str());
+    RunEvaluationRequest request;
+    request.run = opt->run;
+    request.split = opt->split;
+    request.data = opt->data;
+    request.checkpoint = opt->checkpoint;
+    request.max_frames = opt->max_frames;
+    request.progress = !opt->quiet;
+    const auto result = evaluate_run(request);
+    std::printf("%s, step %lld, split %s (%zu frames)\n%s", result.method.c_str(), static_cast<long long>(result.step),
+                opt->split.c_str(), result.metrics.frames.size(), result.metrics.table().c_str());
+    std::printf("wrote %s\n", result.json_path.c_str());
   });
 }
 
