@@ -14,6 +14,7 @@ from ._fskin import (  # noqa: F401
     BodyModel,
     Error,
     FastSnarfDeformer,
+    SnarfDeformer,
     VoxelBox,
     __version__,
     character_size,

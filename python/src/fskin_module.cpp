@@ -13,6 +13,8 @@
 #include "fskin/body/quadruped.h"
 #include "fskin/core/error.h"
 #include "fskin/deformers/fast_snarf_deformer.h"
+#include "fskin/deformers/snarf_deformer.h"
+#include "fskin/fields/mlp_skinning_field.h"
 #include "fskin/fields/voxel_skinning_field.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/geometry/voxel_box.h"
@@ -77,6 +79,62 @@ class PyFastSnarf {
   }
   std::shared_ptr<fskin::FrozenSkinningField> field_;
   fskin::FastSnarfDeformer deformer_;
+};
+
+// SNARF's deformer over fskin's skinning MLP, whose parameters the caller
+// optimises (torch.optim on `parameters()`): the roots' implicit gradient
+// reaches them (SNARF eq. 14).
+class PySnarf {
+ public:
+  PySnarf(int64_t num_bones, const torch::Tensor& extent, int64_t hidden_dim, int64_t hidden_layers,
+          const py::object& start_bones, int max_iterations, double length_unit, std::optional<double> tolerance)
+      : field_(std::make_shared<fskin::MlpSkinningField>(field_options(num_bones, extent, hidden_dim, hidden_layers))),
+        deformer_(field_, options(start_bones, max_iterations, length_unit, tolerance)) {}
+
+  std::tuple<torch::Tensor, torch::Tensor> forward(const torch::Tensor& x_posed, const torch::Tensor& bones) {
+    const auto out = deformer_.forward(x_posed, bones);
+    return {out.x_canonical, out.valid};
+  }
+  torch::Tensor deform(const torch::Tensor& x_canonical, const torch::Tensor& bones) {
+    return deformer_.deform(x_canonical, bones);
+  }
+  torch::Tensor weights(const torch::Tensor& x_canonical) { return field_->weights(x_canonical); }
+  std::vector<torch::Tensor> parameters() { return field_->parameters(); }
+  void to_dtype(const std::string& dtype) {
+    FSKIN_CHECK(dtype == "float32" || dtype == "float64", "SnarfDeformer.to: dtype '{}' is not float32 or float64",
+                dtype);
+    field_->to(dtype == "float64" ? torch::kFloat64 : torch::kFloat32);
+  }
+
+ private:
+  static fskin::MlpSkinningFieldOptions field_options(int64_t num_bones, const torch::Tensor& extent,
+                                                      int64_t hidden_dim, int64_t hidden_layers) {
+    FSKIN_CHECK(num_bones >= 1 && hidden_dim >= 1 && hidden_layers >= 1,
+                "SnarfDeformer: num_bones {}, hidden_dim {} and hidden_layers {} must be >= 1", num_bones, hidden_dim,
+                hidden_layers);
+    fskin::MlpSkinningFieldOptions o;
+    o.num_bones = num_bones;
+    o.hidden_dim = hidden_dim;
+    o.hidden_layers = hidden_layers;
+    o.input = fskin::InputNormalization::around(extent.to(torch::kFloat64));
+    return o;
+  }
+  static fskin::DeformerOptions options(const py::object& start_bones, int max_iterations, double length_unit,
+                                        std::optional<double> tolerance) {
+    FSKIN_CHECK(length_unit > 0 && std::isfinite(length_unit), "SnarfDeformer: length_unit {} must be > 0",
+                length_unit);
+    FSKIN_CHECK(max_iterations >= 1, "SnarfDeformer: max_iterations {} must be >= 1", max_iterations);
+    auto o = fskin::DeformerOptions::snarf().scaled(length_unit);
+    o.start_bones = parse_start_bones(start_bones);
+    o.max_iterations = max_iterations;
+    if (tolerance) {
+      FSKIN_CHECK(*tolerance > 0 && std::isfinite(*tolerance), "SnarfDeformer: tolerance {} must be > 0", *tolerance);
+      o.converge_sq = *tolerance * *tolerance;
+    }
+    return o;
+  }
+  std::shared_ptr<fskin::MlpSkinningField> field_;
+  fskin::SnarfDeformer deformer_;
 };
 
 }  // namespace
@@ -241,4 +299,21 @@ PYBIND11_MODULE(_fskin, m) {
            py::call_guard<py::gil_scoped_release>(),
            "LBS of canonical points [B, N, 3] with the grid's weights -> posed [B, N, 3]")
       .def("weights", &PyFastSnarf::weights, py::arg("x_canonical"), "Skinning weights at canonical points [..., J]");
+
+  py::class_<PySnarf>(m, "SnarfDeformer",
+                      "SNARF's deformer over a skinning MLP (softmax(20 logits)) whose parameters the caller optimises")
+      .def(py::init<int64_t, const torch::Tensor&, int64_t, int64_t, const py::object&, int, double,
+                    std::optional<double>>(),
+           py::arg("num_bones"), py::arg("extent"), py::arg("hidden_dim") = 128, py::arg("hidden_layers") = 4,
+           py::arg("start_bones") = py::none(), py::arg("max_iterations") = 50, py::arg("length_unit") = 1.0,
+           py::arg("tolerance") = py::none(),
+           "extent: canonical points [M, 3] whose bounding box the network's inputs are normalised to")
+      .def("forward", &PySnarf::forward, py::arg("x_posed"), py::arg("bones"), py::call_guard<py::gil_scoped_release>(),
+           "x_posed [B, N, 3], bones [B, J, 4, 4] -> (x_canonical [B, N, I, 3], valid [B, N, I]); exact implicit "
+           "gradient to the points, the bones and the MLP")
+      .def("deform", &PySnarf::deform, py::arg("x_canonical"), py::arg("bones"),
+           py::call_guard<py::gil_scoped_release>())
+      .def("weights", &PySnarf::weights, py::arg("x_canonical"))
+      .def("parameters", &PySnarf::parameters, "The MLP's parameters (tensors shared with the deformer)")
+      .def("to", &PySnarf::to_dtype, py::arg("dtype"), "'float32' or 'float64' (gradcheck)");
 }
