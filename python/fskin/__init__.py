@@ -18,6 +18,7 @@ from ._fskin import (  # noqa: F401
     VoxelBox,
     __version__,
     character_size,
+    diffuse_weights_to_grid,
     evaluate,
     humanoid,
     quadruped,

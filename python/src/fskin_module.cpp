@@ -15,6 +15,7 @@
 #include "fskin/deformers/fast_snarf_deformer.h"
 #include "fskin/deformers/snarf_deformer.h"
 #include "fskin/fields/mlp_skinning_field.h"
+#include "fskin/fields/preset_skinning_field.h"
 #include "fskin/fields/voxel_skinning_field.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/geometry/voxel_box.h"
@@ -281,6 +282,20 @@ PYBIND11_MODULE(_fskin, m) {
       .def("contains", &VoxelBox::contains, py::arg("points"))
       .def("voxel_centres", [](const VoxelBox& b) { return b.voxel_centres(); },
            "Canonical positions of the voxel centres [D, H, W, 3]");
+
+  m.def(
+      "diffuse_weights_to_grid",
+      [](const torch::Tensor& vertices, const torch::Tensor& weights, const VoxelBox& box, int smoothing_iterations,
+         double surface_band) {
+        fskin::WeightDiffusionOptions o;
+        o.smoothing_iterations = smoothing_iterations;
+        o.surface_band = surface_band;
+        return fskin::diffuse_weights_to_grid(vertices, weights, box, o)->grid_weights();
+      },
+      py::arg("vertices"), py::arg("weights"), py::arg("box"), py::arg("smoothing_iterations") = 10,
+      py::arg("surface_band") = 1.0,
+      "A body model's skinning weights [V, J] at its vertices [V, 3] as a voxel grid [D, H, W, J] over box: nearest "
+      "vertex, then smoothing passes off the surface (fields/preset_skinning_field.h)");
 
   py::class_<PyFastSnarf>(m, "FastSnarfDeformer",
                           "Fast-SNARF's deformer over a voxel skinning grid [D, H, W, J] (weights summing to 1)")

@@ -61,3 +61,14 @@ def test_learned_skinning_modes_say_they_are_not_provided():
             assert mode in str(e)
         else:
             raise AssertionError(mode + " was accepted")
+
+
+def test_preset_smooth_uses_the_diffused_grid():
+    body = fskin.humanoid(resolution=40)
+    compat = ForwardDeformer(options(skinning_mode="preset_smooth", res=24), smpl_like_server(body))
+    grid = fskin.diffuse_weights_to_grid(body.v_template, body.weights, compat.box)
+    assert torch.equal(compat.lbs_voxel_final, grid)
+    assert torch.allclose(grid.sum(-1), torch.ones(grid.shape[:-1]), atol=1e-5)
+    verts, _, tfs = body.forward(torch.zeros(1, body.num_joints, 3))
+    _, others = compat.forward(verts, {}, tfs)
+    assert others["valid_ids"].any(-1).float().mean() > 0.99

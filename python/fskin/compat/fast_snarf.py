@@ -17,7 +17,7 @@ NotImplementedError (fskin's own trainer learns them).
 """
 import torch
 
-from .. import FastSnarfDeformer, VoxelBox, character_size
+from .. import FastSnarfDeformer, VoxelBox, character_size, diffuse_weights_to_grid
 
 # The reference implementation's 9 start bones (SMPL: pelvis, hips, knees,
 # shoulders, elbows); for any other skeleton every bone starts a search.
@@ -41,7 +41,7 @@ def _nearest_vertex_weights(points, verts, weights, chunk=65536):
 
 class ForwardDeformer(torch.nn.Module):
     """Fast-SNARF's deformer: opt has res, z_ratio, global_scale, skinning_mode
-    ('preset' or 'preset_smooth', both nearest-vertex weights here), cvg, n_iters;
+    ('preset': nearest-vertex weights, 'preset_smooth': fskin's diffusion of them), cvg, n_iters;
     smpl_server has verts_c [1, V, 3] and weights_c [1, V, J]."""
 
     def __init__(self, opt, smpl_server=None):
@@ -62,10 +62,12 @@ class ForwardDeformer(torch.nn.Module):
         self.n_iters = int(_option(opt, "n_iters", 10))
         self.length_unit = character_size(verts) / 1.7
         d, h, w = self.box.shape
-        if self.mode in ("preset", "preset_smooth"):
+        if self.mode == "preset":
             centres = self.box.voxel_centres().reshape(-1, 3)
             grid = _nearest_vertex_weights(centres, verts, weights).reshape(d, h, w, self.num_bones)
             self.register_buffer("lbs_voxel_final", grid.contiguous())
+        elif self.mode == "preset_smooth":  # fskin's diffusion: nearest vertex, smoothed off the surface
+            self.register_buffer("lbs_voxel_final", diffuse_weights_to_grid(verts, weights, self.box).contiguous())
         else:
             raise NotImplementedError(
                 f"skinning_mode '{self.mode}': fskin.compat.fast_snarf provides 'preset' and 'preset_smooth'; "
