@@ -177,7 +177,7 @@ torch::Tensor decode_npy(const std::string& bytes, const std::string& what) {
     // Any non-zero byte is true; copying raw bytes could create invalid bool values.
     auto* out = tensor.data_ptr<bool>();
     for (int64_t i = 0; i < array.count; ++i) out[i] = array.data[i] != 0;
-  } else {
+  } else if (array.count > 0) {  // an empty tensor has no buffer: memcpy's pointers must not be null
     std::memcpy(tensor.data_ptr(), array.data, static_cast<size_t>(array.count) * dtype.item_size);
   }
   if (dtype.kind == Dtype::Kind::kUnsigned32) {
