@@ -43,6 +43,23 @@ fskin::StartBones parse_start_bones(const py::object& value) {
   return fskin::StartBones::subset(value.cast<std::vector<int64_t>>());
 }
 
+// The search options both deformers take from Python: the paper's settings
+// scaled to the character, then the caller's start bones, iterations and
+// convergence tolerance (a residual norm).
+fskin::DeformerOptions search_options(const char* who, fskin::DeformerOptions paper, const py::object& start_bones,
+                                      int max_iterations, double length_unit, std::optional<double> tolerance) {
+  FSKIN_CHECK(length_unit > 0 && std::isfinite(length_unit), "{}: length_unit {} must be > 0", who, length_unit);
+  FSKIN_CHECK(max_iterations >= 1, "{}: max_iterations {} must be >= 1", who, max_iterations);
+  auto o = paper.scaled(length_unit);
+  o.start_bones = parse_start_bones(start_bones);
+  o.max_iterations = max_iterations;
+  if (tolerance) {
+    FSKIN_CHECK(*tolerance > 0 && std::isfinite(*tolerance), "{}: tolerance {} must be > 0", who, *tolerance);
+    o.converge_sq = *tolerance * *tolerance;
+  }
+  return o;
+}
+
 // A Fast-SNARF deformer over a voxel skinning grid the caller owns.
 class PyFastSnarf {
  public:
@@ -63,19 +80,10 @@ class PyFastSnarf {
  private:
   static fskin::DeformerOptions options(const VoxelBox& box, const py::object& start_bones, int max_iterations,
                                         bool exact_gradient, double length_unit, std::optional<double> tolerance) {
-    FSKIN_CHECK(length_unit > 0 && std::isfinite(length_unit), "FastSnarfDeformer: length_unit {} must be > 0",
-                length_unit);
     box.validate("FastSnarfDeformer: box");
-    auto o = fskin::DeformerOptions::fast_snarf().scaled(length_unit);
-    o.start_bones = parse_start_bones(start_bones);
-    FSKIN_CHECK(max_iterations >= 1, "FastSnarfDeformer: max_iterations {} must be >= 1", max_iterations);
-    o.max_iterations = max_iterations;
+    auto o = search_options("FastSnarfDeformer", fskin::DeformerOptions::fast_snarf(), start_bones, max_iterations,
+                            length_unit, tolerance);
     if (exact_gradient) o.gradient = fskin::GradientMode::Exact;
-    if (tolerance) {
-      FSKIN_CHECK(*tolerance > 0 && std::isfinite(*tolerance), "FastSnarfDeformer: tolerance {} must be > 0",
-                  *tolerance);
-      o.converge_sq = *tolerance * *tolerance;
-    }
     return o;
   }
   std::shared_ptr<fskin::FrozenSkinningField> field_;
@@ -122,17 +130,8 @@ class PySnarf {
   }
   static fskin::DeformerOptions options(const py::object& start_bones, int max_iterations, double length_unit,
                                         std::optional<double> tolerance) {
-    FSKIN_CHECK(length_unit > 0 && std::isfinite(length_unit), "SnarfDeformer: length_unit {} must be > 0",
-                length_unit);
-    FSKIN_CHECK(max_iterations >= 1, "SnarfDeformer: max_iterations {} must be >= 1", max_iterations);
-    auto o = fskin::DeformerOptions::snarf().scaled(length_unit);
-    o.start_bones = parse_start_bones(start_bones);
-    o.max_iterations = max_iterations;
-    if (tolerance) {
-      FSKIN_CHECK(*tolerance > 0 && std::isfinite(*tolerance), "SnarfDeformer: tolerance {} must be > 0", *tolerance);
-      o.converge_sq = *tolerance * *tolerance;
-    }
-    return o;
+    return search_options("SnarfDeformer", fskin::DeformerOptions::snarf(), start_bones, max_iterations, length_unit,
+                          tolerance);
   }
   std::shared_ptr<fskin::MlpSkinningField> field_;
   fskin::SnarfDeformer deformer_;
