@@ -41,6 +41,10 @@ void expect_finite(const torch::Tensor& tensor, const std::string& name) {
   fail("{}: {} non-finite value(s) (NaN or inf), first at flat index {}", name, bad, first);
 }
 
+void expect_finite_on_cpu(const torch::Tensor& tensor, const std::string& name) {
+  if (tensor.is_cpu()) expect_finite(tensor, name);
+}
+
 void expect_floating(const torch::Tensor& tensor, const std::string& name) {
   FSKIN_CHECK(tensor.is_floating_point(), "{}: expected a floating-point tensor, got {}", name,
               std::string(c10::toString(tensor.scalar_type())));

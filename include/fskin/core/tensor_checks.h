@@ -18,6 +18,10 @@ void expect_shape(const torch::Tensor& tensor, std::initializer_list<int64_t> ex
 
 // Throws fskin::Error if `tensor` holds NaN or +-inf; `name` says which input.
 void expect_finite(const torch::Tensor& tensor, const std::string& name);
+// The same for a CPU tensor; a CUDA tensor is not read back, since each read
+// is a host synchronisation: on CUDA the callers fold the check into a read
+// they make anyway (Deformer::forward).
+void expect_finite_on_cpu(const torch::Tensor& tensor, const std::string& name);
 
 // Throws fskin::Error unless `tensor` is floating point.
 void expect_floating(const torch::Tensor& tensor, const std::string& name);
