@@ -15,6 +15,7 @@
 #include "cli/commands.h"
 #include "cli/meshing_options.h"
 #include "fskin/body/body_model.h"
+#include "fskin/core/device.h"
 #include "fskin/core/error.h"
 #include "fskin/data/dataset_posing.h"
 #include "fskin/data/pose_set.h"
@@ -38,8 +39,8 @@ struct RunPoses {
 
   static RunPoses load(const std::string& run_dir, const std::string& pose_path, const std::string& data,
                        const std::string& body_model, const MeshingFlags& flags, const std::string& out) {
-    check_meshing_flags(flags);
-    RunPoses r{TrainedRun::load(run_dir, data), {}, PoseSet::load(pose_path), {}};
+    const auto device = check_meshing_flags(flags);
+    RunPoses r{TrainedRun::load(run_dir, data, {}, device), {}, PoseSet::load(pose_path), {}};
     r.options = meshing_options(flags, r.run.config);
     r.bones = DatasetPosing::load(r.run.data_dir, body_model).bone_transforms(r.poses, pose_path);
     std::filesystem::create_directories(out);
@@ -62,7 +63,8 @@ void repose_run_poses(const std::string& run_dir, const std::string& pose_path, 
   FSKIN_CHECK(canonical.mesh.num_faces() > 0, "animate: {} has an empty canonical surface", run_dir);
   if (auto* field = run.model->canonical_skinning_field()) {
     torch::NoGradGuard no_grad;
-    canonical.mesh.colors = color_by_argmax_weight(field->weights(canonical.mesh.vertices));
+    canonical.mesh.colors =
+        color_by_argmax_weight(field->weights(canonical.mesh.vertices.to(module_device(*field))).cpu());
   }
   io::write_mesh((fs::path(out) / "canonical.ply").string(), canonical.mesh);
   const auto start = std::chrono::steady_clock::now();

@@ -11,7 +11,9 @@
 
 #include "cli/commands.h"
 #include "fskin/body/character.h"
+#include "fskin/core/device.h"
 #include "fskin/core/error.h"
+#include "fskin/util/stopwatch.h"
 #include "fskin/benchmarking/character_scene.h"
 #include "fskin/deformers/fast_snarf_deformer.h"
 #include "fskin/deformers/snarf_deformer.h"
@@ -92,12 +94,12 @@ void register_bench(CLI::App& app) {
   cmd->add_option("--pose", opt->pose, "natural, extreme or both")->check(CLI::IsMember({"natural", "extreme", "both"}));
   cmd->add_option("--deformer", opt->deformer, "fast_snarf, snarf or both")
       ->check(CLI::IsMember({"fast_snarf", "snarf", "both"}));
-  cmd->add_option("--device", opt->device, "cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}));
+  cmd->add_option("--device", opt->device, "cpu, cuda or cuda:N")->capture_default_str();
   cmd->add_option("--repeat", opt->repeat, "runs per case (the best is printed)")->check(CLI::PositiveNumber);
   cmd->add_option("--resolution", opt->resolution, "character mesh resolution")->check(CLI::PositiveNumber);
   cmd->callback([opt] {
-    const torch::Device device(opt->device == "cuda" ? torch::kCUDA : torch::kCPU);
-    FSKIN_CHECK(device.is_cpu() || torch::cuda::is_available(), "--device cuda: no CUDA device available");
+    const torch::Device device = parse_device(opt->device);
+    set_cuda_timing(true);  // stage times include their kernels
     CharacterOptions character;
     character.resolution = opt->resolution;
     const auto model = make_character_model(character);

@@ -98,8 +98,8 @@ void register_export(CLI::App& app) {
                   static_cast<long long>(character.animation.size()));
       return;
     }
-    check_meshing_flags(opt->meshing);
-    const auto run = TrainedRun::load(opt->run, opt->data);
+    const auto device = check_meshing_flags(opt->meshing);
+    const auto run = TrainedRun::load(opt->run, opt->data, {}, device);
     torch::Tensor bones;
     if (!opt->clip.empty())
       bones = DatasetPosing::load(run.data_dir, opt->body_model).bone_transforms(PoseSet::load(opt->clip), opt->clip);

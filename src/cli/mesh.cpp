@@ -41,7 +41,7 @@ void register_mesh(CLI::App& app) {
     FSKIN_CHECK(opt->canonical || !opt->pose.empty(), "mesh: give --pose FILE (and --index K) or --canonical");
     // The pose file first: a wrong file fails before the run is loaded.
     check_mesh_path(opt->out);
-    check_meshing_flags(opt->meshing);
+    const auto device = check_meshing_flags(opt->meshing);
     PoseSet pose;
     if (!opt->canonical) {
       const auto poses = PoseSet::load(opt->pose);
@@ -50,7 +50,7 @@ void register_mesh(CLI::App& app) {
       const int64_t k = opt->index;
       pose = poses.slice(k, k + 1);
     }
-    auto run = TrainedRun::load(opt->run, opt->data, CheckpointChoice::parse(opt->checkpoint));
+    auto run = TrainedRun::load(opt->run, opt->data, CheckpointChoice::parse(opt->checkpoint), device);
     const auto options = meshing_options(opt->meshing, run.config);
     ProgressBar bar("meshing", options.mise.upsampling_steps + 1, !opt->quiet);
     const MiseProgress progress = [&](int64_t level, int64_t, int64_t points) {

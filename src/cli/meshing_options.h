@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <string>
 
+#include "fskin/core/device.h"
 #include "fskin/core/error.h"
 
 #include "fskin/inference/posed_meshing.h"
@@ -17,6 +18,7 @@ struct MeshingFlags {
   int64_t resolution = 256, initial = 32, batch = 0;
   double padding = 0.1;
   bool largest_component = false;
+  std::string device = "cpu";  // where the model runs (core/device.h); meshes come back to the host
 };
 
 inline void add_meshing_flags(CLI::App& cmd, MeshingFlags& flags) {
@@ -32,11 +34,14 @@ inline void add_meshing_flags(CLI::App& cmd, MeshingFlags& flags) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd.add_flag("--largest-component", flags.largest_component, "keep only the connected component with most faces");
+  cmd.add_option("--device", flags.device, "cpu, cuda or cuda:N: where the model runs")->capture_default_str();
 }
 
 // Checks the flags before any work: fails unless resolution / initial is a power of two.
-inline void check_meshing_flags(const MeshingFlags& flags) {
+// Returns the device the model runs on.
+inline torch::Device check_meshing_flags(const MeshingFlags& flags) {
   MiseOptions::resolutions(flags.initial, flags.resolution);
+  return parse_device(flags.device);
 }
 
 // Fails before any work when `path` is not a mesh file name fskin writes.

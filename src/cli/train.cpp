@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "cli/commands.h"
+#include "fskin/core/device.h"
 #include "fskin/models/method.h"
 #include "fskin/training/stop_signal.h"
 #include "fskin/training/train_run.h"
@@ -15,6 +16,7 @@ void register_train(CLI::App& app) {
     int64_t steps = -1;
     std::vector<std::string> assignments;
     bool resume = false, full = false, quiet = false;
+    std::string device = "cpu";
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("train", "Train an articulated occupancy model (SNARF / Fast-SNARF / baselines)");
@@ -28,7 +30,9 @@ void register_train(CLI::App& app) {
   cmd->add_flag("--full", opt->full, "start from the papers' full-size config instead of the CPU demo size");
   cmd->add_flag("--resume", opt->resume, "continue from the newest intact checkpoint in --out");
   cmd->add_flag("--quiet", opt->quiet, "no progress bar");
+  cmd->add_option("--device", opt->device, "cpu, cuda or cuda:N (the data stays on the host; batches move)");
   cmd->callback([opt] {
+    parse_device(opt->device);  // a bad flag fails naming it, before any work
     StopSignal stop;
     TrainRunRequest request;
     request.data = opt->data;
@@ -40,6 +44,7 @@ void register_train(CLI::App& app) {
     request.full = opt->full;
     request.resume = opt->resume;
     request.progress = !opt->quiet;
+    request.device = opt->device;
     request.stop = &stop;
     const auto run = train_run(request, [&](const TrainConfig& config, int64_t frames) {
       std::printf("training %s on %lld frames of %s for %lld steps -> %s\n", config.method.c_str(),

@@ -58,19 +58,27 @@ DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tens
   expect_shape(bones, {x_posed.size(0), field().num_bones(), 4, 4}, "Deformer::forward: bones");
   expect_floating(x_posed, "Deformer::forward: x_posed");
   expect_floating(bones, "Deformer::forward: bones");
-  expect_finite(x_posed, "Deformer::forward: x_posed");
-  expect_finite(bones, "Deformer::forward: bones");
   FSKIN_CHECK(bones.device() == x_posed.device(), "Deformer::forward: x_posed and bones on different devices");
   const int64_t B = x_posed.size(0), N = x_posed.size(1), J = bones.size(1);
+  const bool cuda = x_posed.is_cuda();
   const auto bones_x = bones.to(x_posed.dtype());
-  // Throws on singular bones; the rigid inverses seed the search (SNARF eq. 7).
-  const auto candidates = options_.start_bones.candidates(J);
-  const auto start_inverses = invert_transforms(bones_x.detach())
-                                  .index_select(1, torch::tensor(candidates, torch::kInt64).to(bones.device()));
+  // The rigid inverses seed the search (SNARF eq. 7). On the CPU bad inputs
+  // fail here; on CUDA their check joins the one read of the statistics at
+  // the end, so the search queues without waiting for the host.
+  torch::Tensor inverses, inputs_ok;
+  if (cuda) {
+    auto inverse = invert_transforms_on_device(bones_x.detach());
+    inverses = inverse.inverse;
+    inputs_ok = inverse.invertible & torch::isfinite(x_posed.detach()).all();
+  } else {
+    expect_finite(x_posed, "Deformer::forward: x_posed");
+    expect_finite(bones, "Deformer::forward: bones");
+    inverses = invert_transforms(bones_x.detach());  // throws on singular bones
+  }
+  const auto start_inverses = inverses.index_select(1, candidate_index(J, bones.device()));
 
   bool wants_grad = torch::GradMode::is_enabled() && (x_posed.requires_grad() || bones.requires_grad());
-  for (const auto& p : field().parameters()) wants_grad = wants_grad || (torch::GradMode::is_enabled() && p.requires_grad());
-  const bool cuda = x_posed.is_cuda();
+  wants_grad = wants_grad || (torch::GradMode::is_enabled() && field().requires_grad());
 
   DeformerOutput out;
   DeformerStats& st = out.stats;
@@ -119,12 +127,35 @@ DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tens
   }
   st.points = B * N;
   st.candidates = out.valid.numel();
+  // The one read back to the host: the statistics and, on CUDA, the inputs' check.
+  const auto totals =
+      torch::stack({out.valid.sum().to(torch::kFloat64), iteration_sum,
+                    inputs_ok.defined() ? inputs_ok.to(torch::kFloat64) : torch::ones({}, iteration_sum.options())})
+          .cpu();
+  const double* t = totals.data_ptr<double>();
+  if (t[2] == 0) {
+    // Bad inputs on CUDA: the host checks name the problem.
+    expect_finite(x_posed.cpu(), "Deformer::forward: x_posed");
+    expect_finite(bones.cpu(), "Deformer::forward: bones");
+    invert_transforms(bones_x.detach().cpu());
+    fail("Deformer::forward: bones are not invertible");
+  }
   if (st.points > 0) {
-    const auto totals = torch::stack({out.valid.sum().to(torch::kFloat64), iteration_sum}).cpu();  // one sync
-    st.mean_valid = totals[0].item<double>() / static_cast<double>(st.points);
-    st.mean_iterations = totals[1].item<double>() / static_cast<double>(st.candidates);
+    st.mean_valid = t[0] / static_cast<double>(st.points);
+    st.mean_iterations = t[1] / static_cast<double>(st.candidates);
   }
   return out;
+}
+
+const torch::Tensor& Deformer::candidate_index(int64_t num_bones, const torch::Device& device) {
+  // Cached per (bones, device): building it on the host and copying it to a
+  // GPU would wait for the GPU's queue on every call.
+  auto candidates = options_.start_bones.candidates(num_bones);
+  if (!candidate_index_.defined() || candidate_index_.device() != device || candidates != candidates_) {
+    candidate_index_ = torch::tensor(candidates, torch::kInt64).to(device);
+    candidates_ = std::move(candidates);
+  }
+  return candidate_index_;
 }
 
 torch::Tensor Deformer::attach_gradients(const SearchResult& found, const torch::Tensor& x_posed) {
@@ -134,13 +165,19 @@ torch::Tensor Deformer::attach_gradients(const SearchResult& found, const torch:
   const auto n_index = index.select(1, 1);
   const auto b_index = index.select(1, 0);
   const int64_t B = found.x.size(0);
+  // Rows per frame in one read (nonzero sorts by b), not one per frame.
+  const auto counts = torch::bincount(b_index, {}, B).cpu();
+  const auto* count = counts.data_ptr<int64_t>();
   std::vector<torch::Tensor> residuals, jinvs;
+  int64_t offset = 0;
   for (int64_t b = 0; b < B; ++b) {
-    const auto rows = (b_index == b).nonzero().squeeze(1);
-    if (rows.numel() == 0) continue;
-    const auto x_b = roots.index_select(0, rows);
+    const int64_t rows = count[b];
+    if (rows == 0) continue;
+    const auto x_b = roots.narrow(0, offset, rows);
+    const auto n_b = n_index.narrow(0, offset, rows);
+    offset += rows;
     // r = d(x*) - x' with the graph of the field, the bones and x' (SNARF eq. 12).
-    residuals.push_back(deform_prepared(b, x_b) - x_posed[b].index_select(0, n_index.index_select(0, rows)));
+    residuals.push_back(deform_prepared(b, x_b) - x_posed[b].index_select(0, n_b));
     if (options_.gradient == GradientMode::Exact) {
       const auto jac = spatial_jacobian(b, x_b);
       const auto [inv, info] = torch::linalg_inv_ex(jac);

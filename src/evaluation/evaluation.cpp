@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
 
+#include "fskin/core/device.h"
 #include "fskin/core/error.h"
 #include "fskin/evaluation/iou.h"
 #include "fskin/util/progress.h"
@@ -16,6 +17,7 @@ EvaluationResult evaluate(OccupancyModel& model, const std::vector<OccupancyFram
   torch::NoGradGuard no_grad;
   model.train(false);
   model.freeze_for_inference();
+  const auto device = module_device(model);  // inputs go there, logits come back
   EvaluationResult result;
   result.split = split;
   ProgressBar bar("eval " + split, static_cast<int64_t>(frames.size()), progress);
@@ -28,14 +30,14 @@ EvaluationResult evaluate(OccupancyModel& model, const std::vector<OccupancyFram
     FrameMetrics m;
     m.frame = static_cast<int64_t>(f);
     m.points = frame.points.size(0);
-    const auto bones = frame.bone_transforms.to(torch::kFloat32).unsqueeze(0);
-    const auto pose = frame.pose.to(torch::kFloat32).unsqueeze(0);
+    const auto bones = frame.bone_transforms.to(device, torch::kFloat32).unsqueeze(0);
+    const auto pose = frame.pose.to(device, torch::kFloat32).unsqueeze(0);
     std::vector<torch::Tensor> logits;
     double valid_sum = 0;
     for (int64_t begin = 0; begin < m.points; begin += chunk_points) {
       const auto chunk = frame.points.narrow(0, begin, std::min(chunk_points, m.points - begin));
-      auto p = model.predict(chunk.to(torch::kFloat32).unsqueeze(0), bones, pose, Aggregation::Max);
-      logits.push_back(p.logits.squeeze(0));
+      auto p = model.predict(chunk.to(device, torch::kFloat32).unsqueeze(0), bones, pose, Aggregation::Max);
+      logits.push_back(p.logits.squeeze(0).cpu());
       m.deformer_seconds += p.deformer_seconds;
       m.shape_seconds += p.shape_seconds;
       m.aggregation_seconds += p.aggregation_seconds;

@@ -5,6 +5,12 @@
 
 namespace fskin {
 
+bool SkinningField::requires_grad() const {
+  for (const auto& p : parameters())
+    if (p.requires_grad()) return true;
+  return false;
+}
+
 torch::Tensor GridSkinningField::weights(const torch::Tensor& x_canonical) {
   FSKIN_CHECK(x_canonical.dim() >= 1 && x_canonical.size(-1) == 3,
               "GridSkinningField::weights: points must be [..., 3], got {}", shape_string(x_canonical.sizes()));

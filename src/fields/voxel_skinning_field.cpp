@@ -14,6 +14,21 @@ FrozenSkinningField::FrozenSkinningField(torch::Tensor grid, VoxelBox box) : box
   grid_ = register_buffer("grid", grid.detach().contiguous());
 }
 
+CallerGridSkinningField::CallerGridSkinningField(torch::Tensor grid, VoxelBox box) : box_(box) {
+  box_.validate("skinning grid");
+  set_grid(std::move(grid));
+}
+
+void CallerGridSkinningField::set_grid(torch::Tensor grid) {
+  expect_shape(grid, {box_.shape.depth, box_.shape.height, box_.shape.width, -1}, "skinning grid");
+  FSKIN_CHECK(grid.size(3) >= 1, "skinning grid: no bones");
+  FSKIN_CHECK(!grid_.defined() || grid.size(3) == grid_.size(3), "skinning grid: {} bones, the deformer has {}",
+              grid.size(3), grid_.size(3));
+  expect_floating(grid, "skinning grid");
+  expect_finite_on_cpu(grid, "skinning grid");
+  grid_ = std::move(grid);
+}
+
 DistilledSkinningField::DistilledSkinningField(std::shared_ptr<SkinningField> source, VoxelBox box)
     : source_(std::move(source)), box_(box) {
   FSKIN_CHECK(source_ != nullptr, "DistilledSkinningField: no source field");

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "fskin/core/device.h"
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "fskin/geometry/mesh_topology.h"
@@ -47,13 +48,15 @@ Box posed_meshing_box(OccupancyModel& model, const CanonicalSkeleton& skeleton, 
   expect_shape(bones, {J, 4, 4}, "meshing: bones");
   torch::NoGradGuard no_grad;
   prepare_for_inference(model);
-  const auto extent = skeleton.extent.to(torch::kFloat32).unsqueeze(0);  // [1, M, 3]
-  const auto b = bones.to(torch::kFloat32).unsqueeze(0);
+  const auto device = module_device(model);
+  const auto extent = skeleton.extent.to(device, torch::kFloat32).unsqueeze(0);  // [1, M, 3]
+  const auto b = bones.to(device, torch::kFloat32).unsqueeze(0);
   // The model's own canonical skinning weights; methods without any (the
   // posed-space baselines) use the skeleton's nearest-bone prior instead.
   auto* field = model.canonical_skinning_field();
-  const auto weights = field != nullptr ? field->weights(extent) : nearest_bone_weights(skeleton, extent[0]).unsqueeze(0);
-  const auto skinned = linear_blend_skinning(extent, weights, b)[0];
+  const auto weights = field != nullptr ? field->weights(extent)
+                                        : nearest_bone_weights(skeleton, extent[0].cpu()).to(device).unsqueeze(0);
+  const auto skinned = linear_blend_skinning(extent, weights, b)[0].cpu();
   const auto joints = transform_points(bones.to(torch::kFloat32), skeleton.joints.to(torch::kFloat32));
   return padded_bounds(torch::cat({skinned, joints}), padding);
 }
@@ -66,9 +69,10 @@ MeshingResult mesh_posed(OccupancyModel& model, const CanonicalSkeleton& skeleto
   expect_shape(pose, {J, 3}, "meshing: pose");
   const Box box = posed_meshing_box(model, skeleton, bones, options.padding);
   torch::NoGradGuard no_grad;
-  const auto b = bones.to(torch::kFloat32).unsqueeze(0), p = pose.to(torch::kFloat32).unsqueeze(0);
+  const auto device = module_device(model);
+  const auto b = bones.to(device, torch::kFloat32).unsqueeze(0), p = pose.to(device, torch::kFloat32).unsqueeze(0);
   const ScalarField field = [&](const torch::Tensor& points) {
-    return model.predict(points.unsqueeze(0), b, p, Aggregation::Max).logits.squeeze(0);
+    return model.predict(points.to(device).unsqueeze(0), b, p, Aggregation::Max).logits.squeeze(0).cpu();
   };
   return extract(field, box, options, progress, start);
 }
@@ -81,9 +85,10 @@ MeshingResult mesh_canonical(OccupancyModel& model, const CanonicalSkeleton& ske
   const Box box = canonical_bounds(skeleton, options.padding);
   torch::NoGradGuard no_grad;
   prepare_for_inference(model);
-  const auto p = pose.to(torch::kFloat32).unsqueeze(0);
+  const auto device = module_device(model);
+  const auto p = pose.to(device, torch::kFloat32).unsqueeze(0);
   const ScalarField field = [&](const torch::Tensor& points) {
-    return model.canonical_logits(points.unsqueeze(0), p).reshape({-1});
+    return model.canonical_logits(points.to(device).unsqueeze(0), p).reshape({-1}).cpu();
   };
   return extract(field, box, options, progress, start);
 }
@@ -112,12 +117,13 @@ torch::Tensor repose_vertices(OccupancyModel& model, const Mesh& canonical, cons
   torch::NoGradGuard no_grad;
   prepare_for_inference(model);
   const int64_t N = bones.size(0);
+  const auto device = module_device(model);
   std::vector<torch::Tensor> frames;
   ProgressBar bar("re-posing", N, progress);
   for (int64_t begin = 0; begin < N; begin += batch) {
     const int64_t n = std::min(batch, N - begin);
-    const auto x = canonical.vertices.to(torch::kFloat32).unsqueeze(0).expand({n, -1, 3}).contiguous();
-    frames.push_back(model.repose(x, bones.narrow(0, begin, n).to(torch::kFloat32)));
+    const auto x = canonical.vertices.to(device, torch::kFloat32).unsqueeze(0).expand({n, -1, 3}).contiguous();
+    frames.push_back(model.repose(x, bones.narrow(0, begin, n).to(device, torch::kFloat32)).cpu());
     bar.advance(n);
   }
   bar.finish();

@@ -2,6 +2,7 @@
 
 #include <torch/torch.h>
 
+#include "fskin/core/device.h"
 #include "fskin/core/error.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/skeleton/pose_from_bones.h"
@@ -27,7 +28,8 @@ SkinnedCharacter rigged_avatar(OccupancyModel& model, const std::string& method,
   character.mesh.colors = torch::Tensor();
   {
     torch::NoGradGuard no_grad;
-    character.weights = field->weights(canonical_mesh.vertices.to(torch::kFloat32)).to(torch::kCPU, torch::kFloat32);
+    character.weights = field->weights(canonical_mesh.vertices.to(module_device(*field), torch::kFloat32))
+                            .to(torch::kCPU, torch::kFloat32);
   }
   character.skeleton.joint_names = skeleton.joint_names;
   character.skeleton.parents = skeleton.parents;

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "fskin/core/device.h"
 #include "fskin/core/error.h"
 #include "fskin/data/dataset.h"
 #include "fskin/inference/trained_run.h"
@@ -19,7 +20,8 @@ RunEvaluation evaluate_run(const RunEvaluationRequest& request) {
   std::string split = request.split;
   std::replace(split.begin(), split.end(), '-', '_');
   const auto checkpoint = CheckpointChoice::parse(request.checkpoint);
-  auto run = TrainedRun::load(request.run, request.data, checkpoint);
+  const auto device = parse_device(request.device, "device");
+  auto run = TrainedRun::load(request.run, request.data, checkpoint, device);
   const auto test_set = Dataset::load(run.data_dir, split);
   auto frames = evaluation_frames(test_set);
   if (request.max_frames >= 0 && request.max_frames < static_cast<int64_t>(frames.size()))

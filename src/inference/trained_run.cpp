@@ -8,7 +8,7 @@
 namespace fskin {
 
 TrainedRun TrainedRun::load(const std::string& run_dir, const std::string& data_dir,
-                            const CheckpointChoice& checkpoint) {
+                            const CheckpointChoice& checkpoint, const torch::Device& device) {
   namespace fs = std::filesystem;
   FSKIN_CHECK(fs::is_directory(run_dir), "run directory {} does not exist", run_dir);
   const auto config_path = (fs::path(run_dir) / "config.json").string();
@@ -25,6 +25,7 @@ TrainedRun TrainedRun::load(const std::string& run_dir, const std::string& data_
   run.skeleton = canonical_skeleton(dataset);
   run.canonical_pose = dataset.canonical().pose.to(torch::kFloat32);
   run.model = load_trained_model(run_dir, run.skeleton, &run.step, checkpoint);
+  run.model->to(device);
   return run;
 }
 

@@ -2,6 +2,7 @@
 
 #include <torch/torch.h>
 
+#include "fskin/core/device.h"
 #include "fskin/core/error.h"
 
 namespace fskin {
@@ -25,15 +26,15 @@ torch::Tensor sample_bone_points(const CanonicalSkeleton& skeleton, int64_t per_
 
 torch::Tensor bone_occupancy_loss(OccupancyModel& model, const torch::Tensor& bone_points,
                                   const torch::Tensor& pose) {
-  const auto x = bone_points.unsqueeze(0).expand({pose.size(0), bone_points.size(0), 3});
+  const auto x = bone_points.to(pose.device()).unsqueeze(0).expand({pose.size(0), bone_points.size(0), 3});
   const auto logits = model.canonical_logits(x, pose);
   return torch::binary_cross_entropy_with_logits(logits, torch::ones_like(logits));
 }
 
 torch::Tensor joint_weight_loss(SkinningField& field, const CanonicalSkeleton& skeleton) {
-  const auto joints = skeleton.joints.to(torch::kFloat32);
+  const auto joints = skeleton.joints.to(module_device(field), torch::kFloat32);
   const auto weights = field.weights(joints);  // [J, J]
-  return torch::mse_loss(weights, torch::eye(joints.size(0)));
+  return torch::mse_loss(weights, torch::eye(joints.size(0), joints.options()));
 }
 
 torch::Tensor bootstrap_loss(OccupancyModel& model, const BootstrapInputs& inputs) {

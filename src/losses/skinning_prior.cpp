@@ -3,6 +3,7 @@
 #include <ATen/CPUGeneratorImpl.h>
 #include <torch/torch.h>
 
+#include "fskin/core/device.h"
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 
@@ -44,8 +45,10 @@ double fit_skinning_prior(SkinningField& field, const CanonicalSkeleton& skeleto
                           double learning_rate, uint64_t seed) {
   FSKIN_CHECK(steps >= 0 && learning_rate > 0, "skinning prior: steps {} and learning rate {} out of range", steps,
               learning_rate);
-  const auto points = skinning_prior_points(skeleton, 2048, seed);
-  const auto target = nearest_bone_weights(skeleton, points);
+  const auto host_points = skinning_prior_points(skeleton, 2048, seed);
+  const auto device = module_device(field);
+  const auto points = host_points.to(device);
+  const auto target = nearest_bone_weights(skeleton, host_points).to(device);
   torch::optim::Adam adam(field.parameters(), torch::optim::AdamOptions(learning_rate));
   double loss_value = 0;
   for (int64_t step = 0; step < steps; ++step) {

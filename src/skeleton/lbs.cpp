@@ -43,9 +43,18 @@ torch::Tensor invert_transforms(const torch::Tensor& transforms) {
   FSKIN_CHECK((det.abs() > 1e-8).all().item<bool>(),
               "invert_transforms: singular transform (|det| <= 1e-8 for {} of {} matrices)",
               (det.abs() <= 1e-8).sum().item<int64_t>(), det.numel());
-  const auto inv_rot = torch::inverse(rot);
+  return invert_transforms_on_device(transforms).inverse;
+}
+
+TransformInverse invert_transforms_on_device(const torch::Tensor& transforms) {
+  FSKIN_CHECK(transforms.dim() >= 2 && transforms.size(-1) == 4 && transforms.size(-2) == 4,
+              "invert_transforms: expected [..., 4, 4], got {}", shape_string(transforms.sizes()));
+  const auto rot = transforms.index({Ellipsis, Slice(0, 3), Slice(0, 3)});
+  // linalg_inv_ex: torch::inverse would read its error flags back to the host.
+  const auto inv_rot = std::get<0>(torch::linalg_inv_ex(rot));
   const auto t = transforms.index({Ellipsis, Slice(0, 3), 3});
-  return make_transform(inv_rot, -torch::matmul(inv_rot, t.unsqueeze(-1)).squeeze(-1));
+  const auto invertible = torch::isfinite(transforms).all() & (torch::det(rot).abs() > 1e-8).all();
+  return {make_transform(inv_rot, -torch::matmul(inv_rot, t.unsqueeze(-1)).squeeze(-1)), invertible};
 }
 
 torch::Tensor make_transform(const torch::Tensor& rotation, const torch::Tensor& translation) {

@@ -165,7 +165,7 @@ void load_checkpoint(const std::string& path, const ArchiveReader& read) {
   torch::serialize::InputArchive archive;
   const std::string payload = read_checkpoint_payload(path);
   try {
-    archive.load_from(payload.data(), payload.size());
+    archive.load_from(payload.data(), payload.size(), torch::kCPU);  // a GPU-trained run loads anywhere
   } catch (const std::exception&) {
     fail("{}: damaged checkpoint (its archive does not load)", path);
   }
@@ -177,7 +177,7 @@ std::optional<std::string> load_latest_checkpoint(const std::string& dir, const 
     torch::serialize::InputArchive archive;
     try {
       const std::string payload = read_checkpoint_payload(path);
-      archive.load_from(payload.data(), payload.size());
+      archive.load_from(payload.data(), payload.size(), torch::kCPU);  // a GPU-trained run loads anywhere
     } catch (const std::exception& e) {
       std::fprintf(stderr, "fskin: skipping damaged checkpoint: %s\n", e.what());
       continue;

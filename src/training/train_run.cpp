@@ -2,6 +2,7 @@
 
 #include <filesystem>
 
+#include "fskin/core/device.h"
 #include "fskin/core/error.h"
 #include "fskin/data/dataset.h"
 #include "fskin/evaluation/evaluation_frame.h"
@@ -12,6 +13,7 @@ namespace fskin {
 TrainRunResult train_run(const TrainRunRequest& request,
                          const std::function<void(const TrainConfig&, int64_t frames)>& on_start) {
   FSKIN_CHECK(!request.out.empty(), "train: no run directory (--out) given");
+  const auto device = parse_device(request.device, "device");
   const auto saved = (std::filesystem::path(request.out) / "config.json").string();
   TrainConfig config = request.full ? TrainConfig::full() : TrainConfig{};
   if (!request.method.empty()) config.use_method(request.method);
@@ -35,7 +37,8 @@ TrainRunResult train_run(const TrainRunRequest& request,
   out.frames = dataset.size();
   out.validation_frames = static_cast<int64_t>(validation.size());
   if (on_start) on_start(config, out.frames);
-  out.result = train(config, source, {request.out, request.resume, request.progress, request.stop, &validation});
+  out.result =
+      train(config, source, {request.out, request.resume, request.progress, request.stop, &validation, device});
   out.config = config;
   return out;
 }

@@ -13,7 +13,6 @@
 
 #include "fskin/core/error.h"
 #include "fskin/evaluation/evaluation.h"
-#include "fskin/evaluation/iou.h"
 #include "fskin/losses/bootstrap_losses.h"
 #include "fskin/losses/canonical_sparsity.h"
 #include "fskin/losses/skinning_prior.h"
@@ -147,6 +146,22 @@ std::optional<BestScore> read_best(const std::string& run_dir) {
   }
 }
 
+// Adam's moments follow the parameters: the state is read on the host and the
+// model moved to the training device afterwards.
+void move_optimizer_state(torch::optim::Adam& adam, const torch::Device& device) {
+  for (auto& entry : adam.state()) {
+    auto& state = static_cast<torch::optim::AdamParamState&>(*entry.second);
+    state.exp_avg(state.exp_avg().to(device));
+    state.exp_avg_sq(state.exp_avg_sq().to(device));
+    if (state.max_exp_avg_sq().defined()) state.max_exp_avg_sq(state.max_exp_avg_sq().to(device));
+  }
+}
+
+OccupancyBatch to_device(OccupancyBatch batch, const torch::Device& device) {
+  return {batch.points.to(device), batch.occupancy.to(device), batch.bone_transforms.to(device),
+          batch.pose.to(device)};
+}
+
 }  // namespace
 
 TrainResult train(const TrainConfig& config, const BatchSource& source, const TrainOptions& options) {
@@ -186,6 +201,8 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
     FSKIN_CHECK(loaded.has_value(), "train --resume: no intact checkpoint in {}", options.run_dir);
     step = *loaded;
   }
+  model.to(options.device);
+  move_optimizer_state(adam, options.device);
   if (!options.resume && config.skinning_prior_steps > 0 && model.canonical_skinning_field() != nullptr) {
     result_prior_loss = fit_skinning_prior(*model.canonical_skinning_field(), skeleton, config.skinning_prior_steps,
                                            config.learning_rate, step_seed(config.seed, -1));
@@ -228,28 +245,30 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
     // Models may draw from the default generator during a step (the PINs'
     // bone dropout); seeding it per step keeps --resume bit-for-bit.
     torch::manual_seed(seed ^ 0x2545f491u);
-    const auto batch = source.batch(config.frames_per_batch, config.surface_points, config.uniform_points, seed);
+    const auto batch = to_device(
+        source.batch(config.frames_per_batch, config.surface_points, config.uniform_points, seed), options.device);
     auto prediction = model.predict(batch.points, batch.bone_transforms, batch.pose, Aggregation::Soft);
     const auto bce = torch::binary_cross_entropy_with_logits(prediction.logits, batch.occupancy);
     auto loss = bce;
-    double bootstrap = 0;
+    // The logged terms stay on the device until one read after the step.
+    auto bootstrap = torch::zeros({}, bce.options());
     if (step < bootstrap_steps) {
       auto generator = at::make_generator<at::CPUGeneratorImpl>(seed);
       const BootstrapInputs inputs{&skeleton, sample_bone_points(skeleton, config.bone_points_per_bone, generator),
                                    batch.pose, config.joint_weight_loss_weight};
       const auto extra = bootstrap_loss(model, inputs);
       if (extra.defined()) {
-        bootstrap = extra.item<double>();
+        bootstrap = extra.detach();
         loss = loss + extra;
       }
     }
-    double sparsity = 0;
+    auto sparsity = torch::zeros({}, bce.options());
     if (use_sparsity) {
       auto generator = at::make_generator<at::CPUGeneratorImpl>(seed ^ 0x5bd1e995u);  // not the bootstrap's stream
       const auto prior = config.canonical_sparsity_weight *
                          canonical_sparsity_loss(model, canonical_box, batch.pose, config.canonical_sparsity_points,
                                                  generator);
-      sparsity = prior.item<double>();
+      sparsity = prior.detach();
       loss = loss + prior;
     }
     adam.zero_grad();
@@ -262,16 +281,23 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
     adam.step();
     ++step;
 
-    const double bce_value = bce.item<double>();
+    // One host read per step for everything the log shows.
+    const auto predicted = prediction.logits.detach() > 0, truth = batch.occupancy > 0.5;
+    const auto logged = torch::stack({bce.detach().to(torch::kFloat64), bootstrap.to(torch::kFloat64),
+                                      sparsity.to(torch::kFloat64), (predicted & truth).sum().to(torch::kFloat64),
+                                      (predicted | truth).sum().to(torch::kFloat64)})
+                            .cpu();
+    const auto* values = logged.data_ptr<double>();
+    const double bce_value = values[0], bootstrap_value = values[1], sparsity_value = values[2];
+    const double iou = values[4] == 0 ? 1.0 : values[3] / values[4];  // iou.h's convention
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
-    const double iou = intersection_over_union(prediction.logits.detach() > 0, batch.occupancy > 0.5);
     if (step == result.first_step + 1) result.first_loss = bce_value;
     result.last_loss = bce_value;
     nlohmann::json line = {{"step", step},
-                           {"loss", bce_value + bootstrap + sparsity},
+                           {"loss", bce_value + bootstrap_value + sparsity_value},
                            {"bce", bce_value},
-                           {"bootstrap", bootstrap},
-                           {"sparsity", sparsity},
+                           {"bootstrap", bootstrap_value},
+                           {"sparsity", sparsity_value},
                            {"batch_iou", iou},
                            {"lr", config.learning_rate * rate_scale},
                            {"seconds", seconds},

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fskin/body/body_model.h"
+#include "fskin/core/device.h"
 #include "fskin/data/dataset_posing.h"
 #include "fskin/data/inside_test.h"
 #include "fskin/export/skinned_gltf.h"
@@ -202,6 +203,38 @@ TEST_F(MeshCommand, ExportWithEveryInfluenceEqualsAnimateRepose) {
     largest = std::max(largest, (played[k] - frame.vertices.index_select(0, original)).abs().max().item<double>());
   }
   EXPECT_LT(largest, 1e-4 * height.item<double>());
+}
+
+// --device on every command that runs a model: a GPU where one is usable (the
+// same IoU as on the CPU), otherwise an error naming the flag before any work.
+TEST_F(MeshCommand, DeviceFlagRunsOnTheGpuOrFailsBeforeAnyWork) {
+  const std::string eval = "eval " + path("run") + " --split train --max-frames 2 --quiet";
+  ASSERT_EQ(run_cli(eval + " --device cpu"), 0) << log();
+  const auto on_cpu = nlohmann::json::parse(read_file(path("run") + "/eval-train.json"));
+  expect_failure(eval + " --device tpu", "--device tpu: expected cpu, cuda or cuda:N");
+  expect_failure(eval + " --device cuda:x", "expected cpu, cuda or cuda:N");
+  if (built_with_cuda() && torch::cuda::is_available()) {
+    ASSERT_EQ(run_cli(eval + " --device cuda"), 0) << log();
+    const auto on_gpu = nlohmann::json::parse(read_file(path("run") + "/eval-train.json"));
+    EXPECT_NEAR(on_gpu.at("mean_iou_surf").get<double>(), on_cpu.at("mean_iou_surf").get<double>(), 2e-3);
+    ASSERT_EQ(run_cli("mesh " + path("run") + " --canonical --device cuda --resolution 16 --initial 8 --quiet --out " +
+                      path("gpu.ply")),
+              0)
+        << log();
+    EXPECT_GT(io::read_mesh(path("gpu.ply")).num_faces(), 0);
+    return;
+  }
+  const std::string why = built_with_cuda() ? "no CUDA device is visible" : "built without CUDA kernels";
+  expect_failure(eval + " --device cuda", why);
+  expect_failure("mesh " + path("run") + " --canonical --device cuda --out " + path("gpu.ply"), why);
+  expect_failure("animate " + path("run") + " --poses " + path("poses.npz") + " --device cuda --out " +
+                     path("gpu_frames"),
+                 why);
+  expect_failure("train --data " + path("set") + " --out " + path("gpu_run") + " --steps 1 --device cuda", why);
+  expect_failure("bench deform --device cuda --points 10", why);
+  EXPECT_FALSE(fs::exists(path("gpu.ply")));
+  EXPECT_FALSE(fs::exists(path("gpu_frames")));
+  EXPECT_FALSE(fs::exists(path("gpu_run")));
 }
 
 }  // namespace

@@ -64,6 +64,20 @@ TEST(Lbs, InvertRejectsSingularAndNonFinite) {
   EXPECT_THROW(invert_transforms(nan), std::runtime_error);
 }
 
+TEST(Lbs, InvertOnDeviceFlagsWhatTheCheckedInverseRejects) {
+  const auto good = random_bones(2, 3, 3);
+  const auto on_device = invert_transforms_on_device(good);
+  EXPECT_TRUE(on_device.invertible.item<bool>());
+  EXPECT_EQ(on_device.invertible.dim(), 0);
+  EXPECT_TRUE(torch::allclose(on_device.inverse, invert_transforms(good), 1e-12, 1e-12));
+  auto singular = good.clone();
+  singular[1][2].narrow(0, 0, 3).fill_(0.0);  // a zero row: det 0
+  EXPECT_FALSE(invert_transforms_on_device(singular).invertible.item<bool>());
+  auto infinite = good.clone();
+  infinite[0][1][0][3] = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(invert_transforms_on_device(infinite).invertible.item<bool>());
+}
+
 TEST(Lbs, RejectsMismatchedShapes) {
   const auto bones = random_bones(2, 4, 4);
   EXPECT_THROW(linear_blend_skinning(torch::zeros({2, 5, 3}, kF64), torch::zeros({5, 3}, kF64), bones),

@@ -101,6 +101,10 @@ class Deformer {
 
  private:
   torch::Tensor attach_gradients(const SearchResult& found, const torch::Tensor& x_posed);
+  // The start bones' indices on `device` (cached).
+  const torch::Tensor& candidate_index(int64_t num_bones, const torch::Device& device);
+  std::vector<int64_t> candidates_;
+  torch::Tensor candidate_index_;
 };
 
 }  // namespace fskin

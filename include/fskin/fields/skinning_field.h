@@ -13,6 +13,10 @@ class SkinningField : public torch::nn::Module {
   virtual int64_t num_bones() const = 0;
   // Canonical points [..., 3] -> weights [..., J] (>= 0, summing to 1).
   virtual torch::Tensor weights(const torch::Tensor& x_canonical) = 0;
+  // Whether gradients can reach the field, so that a deformer attaches
+  // implicit gradients to its roots: by default whether any parameter
+  // requires them.
+  virtual bool requires_grad() const;
 };
 
 class GridSkinningField : public SkinningField {

@@ -18,6 +18,7 @@ struct RunEvaluationRequest {
   int64_t max_frames = -1;            // < 0: all
   bool progress = true;
   bool write_json = true;             // RUN/eval-SPLIT.json
+  std::string device = "cpu";         // cpu, cuda or cuda:N (core/device.h)
 };
 
 struct RunEvaluation {

@@ -2,7 +2,7 @@
 // A trained run as the commands that use one (eval, mesh, animate) need it:
 // its config, the dataset it trained on, the canonical skeleton of that
 // dataset and the model from the chosen checkpoint (default: the newest
-// intact one), in inference mode.
+// intact one), in inference mode, on `device` (core/device.h).
 #include <memory>
 #include <string>
 
@@ -26,7 +26,7 @@ struct TrainedRun {
   // Throws fskin::Error naming `run_dir` when it is not a run directory, has no
   // such checkpoint or records no dataset (and `data_dir` is empty).
   static TrainedRun load(const std::string& run_dir, const std::string& data_dir = "",
-                         const CheckpointChoice& checkpoint = {});
+                         const CheckpointChoice& checkpoint = {}, const torch::Device& device = torch::kCPU);
 };
 
 }  // namespace fskin

@@ -24,4 +24,13 @@ torch::Tensor make_transform(const torch::Tensor& rotation, const torch::Tensor&
 // Throws fskin::Error if any 3x3 block is singular or the input is not finite.
 torch::Tensor invert_transforms(const torch::Tensor& transforms);
 
+// The same inverse without reading anything back to the host: `invertible` is
+// a bool scalar on the transforms' device (all finite and every |det| >
+// 1e-8), for callers that fold that check into a read they make anyway (the
+// deformer on CUDA). Where it is false the inverse is meaningless.
+struct TransformInverse {
+  torch::Tensor inverse, invertible;
+};
+TransformInverse invert_transforms_on_device(const torch::Tensor& transforms);
+
 }  // namespace fskin

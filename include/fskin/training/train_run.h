@@ -24,6 +24,7 @@ struct TrainRunRequest {
   bool full = false;        // start from TrainConfig::full()
   bool resume = false;      // continue from the newest intact checkpoint in out
   bool progress = true;
+  std::string device = "cpu";  // cpu, cuda or cuda:N (core/device.h)
   const StopSignal* stop = nullptr;
 };
 

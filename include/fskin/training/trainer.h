@@ -28,6 +28,9 @@ struct TrainOptions {
   const StopSignal* stop = nullptr;  // finish the step, checkpoint, return
   // Frames the best checkpoint is chosen on (needed when config.validate_every > 0).
   const std::vector<OccupancyFrame>* validation = nullptr;
+  // Where the model and every batch live (core/device.h); data loading and
+  // sampling stay on the host, so a run's batches are the same on any device.
+  torch::Device device = torch::kCPU;
 };
 
 struct TrainResult {

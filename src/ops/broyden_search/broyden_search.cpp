@@ -67,7 +67,7 @@ BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const Vo
               "broyden_search: transform_grid, x_posed and start_inverses must share one dtype");
   FSKIN_CHECK(transform_grid.device() == x_posed.device() && start_inverses.device() == x_posed.device(),
               "broyden_search: all inputs must be on one device");
-  expect_finite(start_inverses, "broyden_search: start_inverses");
+  expect_finite_on_cpu(start_inverses, "broyden_search: start_inverses");
   torch::Tensor weights;
   if (I < S) {
     expect_shape(start_weights, {box.shape.depth, box.shape.height, box.shape.width, S},

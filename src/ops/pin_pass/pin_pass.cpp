@@ -93,8 +93,8 @@ torch::Tensor fused_pin_pass(PinImpl& pin, const torch::Tensor& points, const to
   expect_shape(pose_embedding, {points.size(0), pin.options().coupling.embedding_dim}, "fused PIN pass: pose embedding");
   FSKIN_CHECK(points.scalar_type() == torch::kFloat32, "fused PIN pass: points must be float32, got {}",
               c10::toString(points.scalar_type()));
-  expect_finite(points, "fused PIN pass: points");
-  expect_finite(pose_embedding, "fused PIN pass: pose embedding");
+  expect_finite_on_cpu(points, "fused PIN pass: points");
+  expect_finite_on_cpu(pose_embedding, "fused PIN pass: pose embedding");
   FSKIN_CHECK(pose_embedding.device() == points.device(), "fused PIN pass: points and pose embedding on different devices");
   FSKIN_CHECK(fused_pin_pass_supports(pin),
               "fused PIN pass: the PIN is too large for the kernel ({} layers, widths {} / {} / {}; at most {} and {})",
