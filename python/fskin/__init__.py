@@ -12,15 +12,36 @@ import torch  # noqa: F401  (loads LibTorch's Python bindings before the extensi
 
 from ._fskin import (  # noqa: F401
     BodyModel,
+    Dataset,
     Error,
     FastSnarfDeformer,
+    Pin,
+    Run,
     SnarfDeformer,
     VoxelBox,
     __version__,
+    build_dataset,
+    built_with_cuda,
+    built_with_embree,
     character_size,
     diffuse_weights_to_grid,
     evaluate,
     humanoid,
+    ood_poses,
     quadruped,
+    read_mesh,
     train,
+    training_poses,
+    write_mesh,
 )
+from ._fskin import openblas_core, recommended_openblas_core  # noqa: F401
+
+# OpenBLAS picks its kernels once, when LibTorch loads it: a Python process
+# cannot switch them as the fskin CLI does (util/runtime_restart.h), so say so.
+if recommended_openblas_core() is not None:
+    import warnings
+
+    warnings.warn(
+        f"fskin: OpenBLAS runs its generic SSE3 kernels ({openblas_core()}) on this CPU; start Python with "
+        f"OPENBLAS_CORETYPE={recommended_openblas_core()} for the several times faster kernels the fskin CLI uses",
+        RuntimeWarning, stacklevel=2)

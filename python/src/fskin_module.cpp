@@ -4,14 +4,24 @@
 // deformer's roots carry the implicit gradient (SNARF eq. 14 / Fast-SNARF
 // eq. 17) to the posed points, the bone transforms and the skinning grid.
 // fskin::Error becomes fskin.Error (a RuntimeError) with fskin's message.
+#include <pybind11/stl.h>
 #include <torch/extension.h>
 
+#include <filesystem>
 #include <optional>
 
 #include "fskin/body/body_model.h"
 #include "fskin/body/character.h"
 #include "fskin/body/quadruped.h"
+#include "fskin/core/device.h"
 #include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+#include "fskin/data/dataset.h"
+#include "fskin/data/dataset_builder.h"
+#include "fskin/data/dataset_posing.h"
+#include "fskin/data/inside_test.h"
+#include "fskin/data/pose_generators.h"
+#include "fskin/data/pose_set.h"
 #include "fskin/deformers/fast_snarf_deformer.h"
 #include "fskin/deformers/snarf_deformer.h"
 #include "fskin/fields/mlp_skinning_field.h"
@@ -19,8 +29,17 @@
 #include "fskin/fields/voxel_skinning_field.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/geometry/voxel_box.h"
+#include "fskin/invertible/pin.h"
+#include "fskin/io/mesh_io.h"
+#include "fskin/ops/pin_pass.h"
+#include "fskin/export/skinned_gltf.h"
+#include "fskin/inference/posed_meshing.h"
+#include "fskin/inference/rigged_avatar.h"
 #include "fskin/inference/run_evaluation.h"
+#include "fskin/inference/trained_run.h"
 #include "fskin/training/train_run.h"
+#include "fskin/util/blas_kernels.h"
+#include "fskin/util/blas_threads.h"
 #include "fskin/version.h"
 
 namespace py = pybind11;
@@ -60,12 +79,15 @@ fskin::DeformerOptions search_options(const char* who, fskin::DeformerOptions pa
   return o;
 }
 
-// A Fast-SNARF deformer over a voxel skinning grid the caller owns.
+// A Fast-SNARF deformer over a voxel skinning grid the caller owns: a fixed
+// grid, or one computed with a graph (a softmax of a voxel parameter, an MLP
+// at the voxel centres) and set again before each search, so the roots'
+// implicit gradient reaches what computed it.
 class PyFastSnarf {
  public:
   PyFastSnarf(const torch::Tensor& grid_weights, const VoxelBox& box, const py::object& start_bones,
               int max_iterations, bool exact_gradient, double length_unit, std::optional<double> tolerance)
-      : field_(std::make_shared<fskin::FrozenSkinningField>(grid_weights, box)),
+      : field_(std::make_shared<fskin::CallerGridSkinningField>(grid_weights, box)),
         deformer_(field_, options(box, start_bones, max_iterations, exact_gradient, length_unit, tolerance)) {}
 
   std::tuple<torch::Tensor, torch::Tensor> forward(const torch::Tensor& x_posed, const torch::Tensor& bones) {
@@ -76,6 +98,9 @@ class PyFastSnarf {
     return deformer_.deform(x_canonical, bones);
   }
   torch::Tensor weights(const torch::Tensor& x_canonical) { return field_->weights(x_canonical); }
+  torch::Tensor grid_weights() const { return field_->grid_weights(); }
+  void set_grid_weights(const torch::Tensor& grid) { field_->set_grid(grid); }
+  const VoxelBox& box() const { return field_->box(); }
 
  private:
   static fskin::DeformerOptions options(const VoxelBox& box, const py::object& start_bones, int max_iterations,
@@ -86,7 +111,7 @@ class PyFastSnarf {
     if (exact_gradient) o.gradient = fskin::GradientMode::Exact;
     return o;
   }
-  std::shared_ptr<fskin::FrozenSkinningField> field_;
+  std::shared_ptr<fskin::CallerGridSkinningField> field_;
   fskin::FastSnarfDeformer deformer_;
 };
 
@@ -135,6 +160,170 @@ class PySnarf {
   }
   std::shared_ptr<fskin::MlpSkinningField> field_;
   fskin::SnarfDeformer deformer_;
+};
+
+// Poses [N, J, 3] (and root translations [N, 3]) as a PoseSet for a model's joints.
+fskin::PoseSet pose_set(const torch::Tensor& poses, const std::optional<torch::Tensor>& trans,
+                        const std::vector<std::string>& joint_names, const char* what) {
+  fskin::expect_shape(poses, {-1, static_cast<int64_t>(joint_names.size()), 3}, what);
+  fskin::PoseSet set;
+  set.poses = poses.detach().to(torch::kCPU, torch::kFloat32).contiguous();
+  set.trans = trans ? trans->detach().to(torch::kCPU, torch::kFloat32).contiguous() : torch::zeros({poses.size(0), 3});
+  fskin::expect_shape(set.trans, {poses.size(0), 3}, what);
+  set.joint_names = joint_names;
+  return set;
+}
+
+py::dict frame_dict(const fskin::DatasetFrame& f) {
+  py::dict d(py::arg("points") = f.points, py::arg("occupancy") = f.occupancy, py::arg("num_uniform") = f.num_uniform,
+             py::arg("bone_transforms") = f.bone_transforms, py::arg("pose") = f.pose, py::arg("trans") = f.trans);
+  if (f.vertices.defined()) {
+    d["vertices"] = f.vertices;
+    d["faces"] = f.faces;
+  }
+  return d;
+}
+
+// INS's pose-conditioned invertible network (INS eq. 13-14) driven by pose
+// embeddings the caller computes: differentiable in the points, the embedding
+// and its parameters (torch.optim on parameters()); fused() is the inference
+// kernel (ops/pin_pass.h), no gradients.
+class PyPin {
+ public:
+  PyPin(int64_t num_layers, int64_t embedding_dim, int64_t space_hidden_dim, int64_t space_layers,
+        int64_t map_hidden_dim, int64_t map_hidden_layers, bool linear_output, double first_omega,
+        double hidden_omega)
+      : pin_(options(num_layers, embedding_dim, space_hidden_dim, space_layers, map_hidden_dim, map_hidden_layers,
+                     linear_output, first_omega, hidden_omega)) {}
+
+  torch::Tensor forward(const torch::Tensor& x, const torch::Tensor& embedding) {
+    return pin_->forward_embedded(x, embedding);
+  }
+  torch::Tensor inverse(const torch::Tensor& y, const torch::Tensor& embedding) {
+    return pin_->inverse_embedded(y, embedding);
+  }
+  torch::Tensor fused(const torch::Tensor& x, const torch::Tensor& embedding, bool inverse) {
+    torch::NoGradGuard no_grad;
+    return fskin::fused_pin_pass(*pin_, x, embedding, inverse);
+  }
+  std::vector<torch::Tensor> parameters() { return pin_->parameters(); }
+  void to(const std::string& target) {
+    if (target == "float32" || target == "float64") {
+      pin_->to(target == "float64" ? torch::kFloat64 : torch::kFloat32);
+      return;
+    }
+    pin_->to(fskin::parse_device(target, "Pin.to"));
+  }
+
+ private:
+  static fskin::PinOptions options(int64_t num_layers, int64_t embedding_dim, int64_t space_hidden_dim,
+                                   int64_t space_layers, int64_t map_hidden_dim, int64_t map_hidden_layers,
+                                   bool linear_output, double first_omega, double hidden_omega) {
+    fskin::PinOptions o;
+    o.num_layers = num_layers;
+    o.own_pose_encoder = false;
+    o.coupling.embedding_dim = embedding_dim;
+    o.coupling.space_hidden_dim = space_hidden_dim;
+    o.coupling.space_layers = space_layers;
+    o.coupling.space_linear_output = linear_output;
+    o.coupling.first_omega = first_omega;
+    o.coupling.hidden_omega = hidden_omega;
+    o.coupling.map_hidden_dim = map_hidden_dim;
+    o.coupling.map_hidden_layers = map_hidden_layers;
+    o.validate();
+    return o;
+  }
+  fskin::Pin pin_;
+};
+
+// A trained run (`fskin train`'s directory) for inference from Python: the
+// same loading, meshing, re-posing and export as `fskin mesh`, `animate` and
+// `export`, on the device the model was moved to. No gradients (inference).
+class PyRun {
+ public:
+  PyRun(const std::string& dir, const std::string& data, const std::string& checkpoint, const std::string& device)
+      : run_(fskin::TrainedRun::load(dir, data, fskin::CheckpointChoice::parse(checkpoint),
+                                     fskin::parse_device(device, "Run.load: device"))) {}
+
+  const std::string& method() const { return run_.config.method; }
+  int64_t step() const { return run_.step; }
+  const std::vector<std::string>& joint_names() const { return run_.skeleton.joint_names; }
+  const std::vector<int64_t>& parents() const { return run_.skeleton.parents; }
+  torch::Tensor canonical_joints() const { return run_.skeleton.joints; }
+  torch::Tensor canonical_pose() const { return run_.canonical_pose; }
+  std::string device() const { return fskin::module_device(*run_.model).str(); }
+
+  // Axis-angle poses [N, J, 3] (and root translations [N, 3]) -> bones [N, J, 4, 4], as the dataset poses.
+  torch::Tensor bone_transforms(const torch::Tensor& poses, const std::optional<torch::Tensor>& trans,
+                                const std::string& body_model) const {
+    fskin::expect_shape(poses, {-1, static_cast<int64_t>(run_.skeleton.parents.size()), 3}, "Run.bone_transforms: poses");
+    fskin::PoseSet set;
+    set.poses = poses.to(torch::kCPU, torch::kFloat32);
+    set.trans = trans ? trans->to(torch::kCPU, torch::kFloat32) : torch::zeros({poses.size(0), 3});
+    return fskin::DatasetPosing::load(run_.data_dir, body_model).bone_transforms(set, "Run.bone_transforms");
+  }
+
+  // The canonical surface (pose None) or the surface in one pose: (vertices [V, 3], faces [F, 3]).
+  std::tuple<torch::Tensor, torch::Tensor> mesh(const std::optional<torch::Tensor>& pose,
+                                                const std::optional<torch::Tensor>& trans, int64_t resolution,
+                                                int64_t initial, bool largest_component) {
+    const auto options = meshing_options(resolution, initial, largest_component);
+    fskin::MeshingResult result;
+    if (!pose) {
+      result = fskin::mesh_canonical(*run_.model, run_.skeleton, run_.canonical_pose, options);
+    } else {
+      const auto p = pose->dim() == 2 ? pose->unsqueeze(0) : *pose;
+      const auto t = trans ? std::optional<torch::Tensor>(trans->dim() == 1 ? trans->unsqueeze(0) : *trans) : std::nullopt;
+      const auto bones = bone_transforms(p, t, "");
+      FSKIN_CHECK(bones.size(0) == 1, "Run.mesh: one pose [J, 3], got {}", bones.size(0));
+      result = fskin::mesh_posed(*run_.model, run_.skeleton, bones[0], p[0].to(torch::kFloat32), options);
+    }
+    return {result.mesh.vertices, result.mesh.faces};
+  }
+
+  // Canonical vertices [V, 3] moved into every pose of bones [N, J, 4, 4] -> [N, V, 3] (INS eq. 19;
+  // for SNARF / Fast-SNARF the LBS of their learned weights).
+  torch::Tensor repose(const torch::Tensor& vertices, const torch::Tensor& faces, const torch::Tensor& bones,
+                       int64_t batch) {
+    fskin::Mesh canonical{vertices.to(torch::kCPU, torch::kFloat32).contiguous(), faces.to(torch::kCPU, torch::kInt64), {}};
+    return fskin::repose_vertices(*run_.model, canonical, bones, batch, /*progress=*/false);
+  }
+
+  // Occupancy logits of posed points [B, N, 3] in bones [B, J, 4, 4] with pose [B, J, 3] (the hard max
+  // over candidates, as evaluation), on the host.
+  torch::Tensor occupancy(const torch::Tensor& points, const torch::Tensor& bones, const torch::Tensor& pose) {
+    torch::NoGradGuard no_grad;
+    run_.model->train(false);
+    run_.model->freeze_for_inference();
+    const auto device = fskin::module_device(*run_.model);
+    return run_.model
+        ->predict(points.to(device, torch::kFloat32), bones.to(device, torch::kFloat32),
+                  pose.to(device, torch::kFloat32), fskin::Aggregation::Max)
+        .logits.cpu();
+  }
+
+  // The canonical mesh with the learned skinning as a rigged glTF (`fskin export RUN`).
+  void export_gltf(const std::string& path, const std::optional<torch::Tensor>& bones, double fps, int64_t influences,
+                   int64_t resolution, int64_t initial) {
+    const auto ext = std::filesystem::path(path).extension().string();
+    FSKIN_CHECK(ext == ".glb" || ext == ".gltf", "{}: the output must end in .glb or .gltf", path);  // before meshing
+    const auto canonical = fskin::mesh_canonical(*run_.model, run_.skeleton, run_.canonical_pose,
+                                                 meshing_options(resolution, initial, true));
+    auto avatar = fskin::rigged_avatar(*run_.model, run_.config.method, run_.skeleton, canonical.mesh,
+                                       bones ? bones->to(torch::kCPU, torch::kFloat32) : torch::Tensor(), fps);
+    avatar.influences = influences;
+    fskin::write_skinned_gltf(path, avatar);
+  }
+
+ private:
+  fskin::PosedMeshingOptions meshing_options(int64_t resolution, int64_t initial, bool largest_component) const {
+    fskin::PosedMeshingOptions o;
+    o.mise = fskin::MiseOptions::resolutions(initial, resolution);
+    o.mise.batch_size = run_.config.eval_chunk_points;
+    o.largest_component = largest_component;
+    return o;
+  }
+  fskin::TrainedRun run_;
 };
 
 }  // namespace
@@ -197,7 +386,8 @@ PYBIND11_MODULE(_fskin, m) {
   m.def(
       "train",
       [](const std::string& data, const std::string& out, int64_t steps, const std::string& method,
-         const std::vector<std::string>& settings, const std::string& config, bool full, bool resume, bool progress) {
+         const std::vector<std::string>& settings, const std::string& config, bool full, bool resume, bool progress,
+         const std::string& device) {
         fskin::TrainRunRequest request;
         request.data = data;
         request.out = out;
@@ -208,9 +398,11 @@ PYBIND11_MODULE(_fskin, m) {
         request.full = full;
         request.resume = resume;
         request.progress = progress;
+        request.device = device;
         fskin::TrainRunResult run;
         {
           py::gil_scoped_release no_gil;
+          const fskin::SingleThreadedBlasScope blas;  // as `fskin train` runs
           const fskin::StopSignal stop;  // Ctrl-C: finish the step, checkpoint, return
           request.stop = &stop;
           run = fskin::train_run(request);
@@ -224,14 +416,14 @@ PYBIND11_MODULE(_fskin, m) {
       },
       py::arg("data"), py::arg("out"), py::arg("steps") = -1, py::arg("method") = "",
       py::arg("settings") = std::vector<std::string>{}, py::arg("config") = "", py::arg("full") = false,
-      py::arg("resume") = false, py::arg("progress") = false,
+      py::arg("resume") = false, py::arg("progress") = false, py::arg("device") = "cpu",
       "Train a run on a dataset directory (`fskin data build`) into `out`, as `fskin train` does; settings are "
       "key=value config overrides. Returns the losses, steps and time.");
 
   m.def(
       "evaluate",
       [](const std::string& run, const std::string& split, const std::string& data, const std::string& checkpoint,
-         int64_t max_frames, bool write_json) {
+         int64_t max_frames, bool write_json, const std::string& device) {
         fskin::RunEvaluationRequest request;
         request.run = run;
         request.split = split;
@@ -240,9 +432,11 @@ PYBIND11_MODULE(_fskin, m) {
         request.max_frames = max_frames;
         request.progress = false;
         request.write_json = write_json;
+        request.device = device;
         fskin::RunEvaluation result;
         {
           py::gil_scoped_release no_gil;
+          const fskin::SingleThreadedBlasScope blas;  // as `fskin eval` runs
           result = fskin::evaluate_run(request);
         }
         py::list frames;
@@ -254,8 +448,158 @@ PYBIND11_MODULE(_fskin, m) {
                         py::arg("mean_iou_surf") = result.metrics.mean_iou_surf, py::arg("frames") = frames);
       },
       py::arg("run"), py::arg("split") = "test-within", py::arg("data") = "", py::arg("checkpoint") = "latest",
-      py::arg("max_frames") = -1, py::arg("write_json") = false,
+      py::arg("max_frames") = -1, py::arg("write_json") = false, py::arg("device") = "cpu",
       "IoU_bbox / IoU_surf of a trained run on a split, as `fskin eval` computes them");
+
+  m.def(
+      "training_poses",
+      [](const BodyModel& body, int64_t sequences, int64_t frames, uint64_t seed) {
+        const fskin::TrainingPoseOptions options{sequences, frames, seed};
+        return fskin::make_training_poses(body.data().joint_names, options).poses;
+      },
+      py::arg("body"), py::arg("sequences") = 10, py::arg("frames") = 30, py::arg("seed") = 0,
+      "Natural motions within moderate joint ranges, as `fskin poses train`: [sequences * frames, J, 3]");
+  m.def(
+      "ood_poses",
+      [](const BodyModel& body, int64_t count, uint64_t seed) {
+        const fskin::OodPoseOptions options{count, seed};
+        return fskin::make_ood_poses(body.data().joint_names, options).poses;
+      },
+      py::arg("body"), py::arg("count") = 50, py::arg("seed") = 0,
+      "Extreme poses outside the training ranges, as `fskin poses ood`: [count, J, 3]");
+  m.def(
+      "build_dataset",
+      [](const std::string& model_path, const torch::Tensor& poses, const std::string& out,
+         const std::optional<torch::Tensor>& trans, const std::optional<torch::Tensor>& ood_poses, int64_t points,
+         uint64_t seed, const std::string& canonical_pose, bool progress) {
+        const auto model = BodyModel::load(model_path);
+        const auto& names = model.data().joint_names;
+        const auto train = pose_set(poses, trans, names, "build_dataset: poses");
+        const auto ood = ood_poses ? pose_set(*ood_poses, std::nullopt, names, "build_dataset: ood_poses") : fskin::PoseSet{};
+        FSKIN_CHECK(points >= 2, "build_dataset: points {} must be >= 2", points);
+        fskin::DatasetBuildOptions options;
+        options.out_dir = out;
+        options.model_source = std::filesystem::absolute(model_path).string();
+        options.poses_source = "(python)";
+        options.ood_poses_source = ood_poses ? "(python)" : "";
+        options.sampling.uniform_points = points / 2;
+        options.sampling.surface_points = points - points / 2;
+        options.seed = seed;
+        options.canonical_pose = canonical_pose;
+        options.progress = progress;
+        fskin::DatasetBuildSummary summary;
+        {
+          py::gil_scoped_release no_gil;
+          summary = fskin::build_dataset(model, train, ood, options);
+        }
+        return py::dict(py::arg("frames") = summary.frames_written, py::arg("skipped") = summary.frames_skipped,
+                        py::arg("train") = summary.train, py::arg("val") = summary.val,
+                        py::arg("test_within") = summary.test_within, py::arg("test_ood") = summary.test_ood);
+      },
+      py::arg("model"), py::arg("poses"), py::arg("out"), py::arg("trans") = py::none(),
+      py::arg("ood_poses") = py::none(), py::arg("points") = 50000, py::arg("seed") = 0,
+      py::arg("canonical_pose") = "default", py::arg("progress") = false,
+      "A dataset directory as `fskin data build` writes it, from a model file and poses [N, J, 3] (ood_poses: "
+      "the test_ood split); needs Embree (built_with_embree)");
+  m.def(
+      "write_mesh",
+      [](const std::string& path, const torch::Tensor& vertices, const torch::Tensor& faces,
+         const std::optional<torch::Tensor>& colors) {
+        fskin::Mesh mesh{vertices.detach().to(torch::kCPU, torch::kFloat32).contiguous(),
+                         faces.to(torch::kCPU, torch::kInt64).contiguous(),
+                         colors ? colors->to(torch::kCPU, torch::kUInt8).contiguous() : torch::Tensor()};
+        mesh.validate(path);
+        fskin::io::write_mesh(path, mesh);
+      },
+      py::arg("path"), py::arg("vertices"), py::arg("faces"), py::arg("colors") = py::none(),
+      "Write a mesh (vertices [V, 3], faces [F, 3], colours [V, 3] uint8) as .ply or .obj");
+  m.def(
+      "read_mesh",
+      [](const std::string& path) {
+        const auto mesh = fskin::io::read_mesh(path);
+        return py::make_tuple(mesh.vertices, mesh.faces);
+      },
+      py::arg("path"), "Read a .ply or .obj mesh: (vertices [V, 3], faces [F, 3])");
+  m.def("openblas_core", &fskin::openblas_core, "The kernels OpenBLAS runs (openblas_get_corename), or None");
+  m.def("recommended_openblas_core", &fskin::openblas_core_setting,
+        "The OPENBLAS_CORETYPE to start Python with where OpenBLAS fell back to its SSE3 kernels on a CPU with "
+        "AVX2 / AVX-512 (the fskin CLI restarts itself with it), or None");
+  m.def("built_with_embree", &fskin::inside_test_available, "Whether datasets can be built (Embree's inside test)");
+  m.def("built_with_cuda", &fskin::built_with_cuda, "Whether the CUDA kernels are linked (device='cuda' works)");
+
+  py::class_<fskin::Dataset>(m, "Dataset", "One split of a dataset directory: frames of posed points and occupancy")
+      .def(py::init([](const std::string& dir, const std::string& split, bool with_meshes) {
+             return fskin::Dataset::load(dir, split, with_meshes);
+           }),
+           py::arg("dir"), py::arg("split") = "train", py::arg("with_meshes") = false,
+           py::call_guard<py::gil_scoped_release>(), "split: train, val, test_within or test_ood")
+      .def("__len__", &fskin::Dataset::size)
+      .def(
+          "__getitem__",
+          [](const fskin::Dataset& d, int64_t i) {
+            if (i < 0) i += d.size();
+            if (i < 0 || i >= d.size()) throw py::index_error("Dataset: frame index out of range");
+            return frame_dict(d.frame(i));
+          },
+          py::arg("index"),
+          "A frame: points [N, 3], occupancy [N], num_uniform (the first points are uniform in the box, the rest "
+          "near the surface), bone_transforms [J, 4, 4], pose [J, 3], trans [3] (and vertices, faces)")
+      .def_property_readonly("split", &fskin::Dataset::split)
+      .def_property_readonly("joint_names", &fskin::Dataset::joint_names)
+      .def_property_readonly("parents", &fskin::Dataset::parents)
+      .def_property_readonly("canonical", [](const fskin::Dataset& d) { return frame_dict(d.canonical()); });
+
+  py::class_<PyPin>(m, "Pin",
+                    "INS's pose-conditioned invertible network (eq. 13-14) over pose embeddings [B, E] the caller "
+                    "computes; identity at initialisation")
+      .def(py::init<int64_t, int64_t, int64_t, int64_t, int64_t, int64_t, bool, double, double>(),
+           py::arg("num_layers") = 6, py::arg("embedding_dim") = 16, py::arg("space_hidden_dim") = 32,
+           py::arg("space_layers") = 2, py::arg("map_hidden_dim") = 8, py::arg("map_hidden_layers") = 2,
+           py::arg("linear_output") = true, py::arg("first_omega") = 30.0, py::arg("hidden_omega") = 30.0)
+      .def("forward", &PyPin::forward, py::arg("x"), py::arg("embedding"), py::call_guard<py::gil_scoped_release>(),
+           "PIN(x [B, N, 3], z [B, E]) -> [B, N, 3], differentiable")
+      .def("inverse", &PyPin::inverse, py::arg("y"), py::arg("embedding"), py::call_guard<py::gil_scoped_release>(),
+           "PIN^-1(y, z), differentiable")
+      .def("fused", &PyPin::fused, py::arg("x"), py::arg("embedding"), py::arg("inverse") = false,
+           py::call_guard<py::gil_scoped_release>(),
+           "The fused inference kernel (float32, no gradients): the same map in one pass per point")
+      .def("parameters", &PyPin::parameters)
+      .def("to", &PyPin::to, py::arg("target"), "'float32', 'float64' or a device ('cpu', 'cuda')");
+
+  py::class_<PyRun>(m, "Run",
+                    "A trained run directory for inference: meshing, re-posing, occupancy and glTF export, as "
+                    "`fskin mesh`, `animate` and `export` do them")
+      .def(py::init<const std::string&, const std::string&, const std::string&, const std::string&>(), py::arg("dir"),
+           py::arg("data") = "", py::arg("checkpoint") = "latest", py::arg("device") = "cpu",
+           py::call_guard<py::gil_scoped_release>(),
+           "data: the dataset (default: the one the run trained on); checkpoint: latest, best or a step; device: "
+           "cpu, cuda or cuda:N")
+      .def_property_readonly("method", &PyRun::method)
+      .def_property_readonly("step", &PyRun::step)
+      .def_property_readonly("joint_names", &PyRun::joint_names)
+      .def_property_readonly("parents", &PyRun::parents)
+      .def_property_readonly("canonical_joints", &PyRun::canonical_joints, "[J, 3]")
+      .def_property_readonly("canonical_pose", &PyRun::canonical_pose, "[J, 3] axis-angle")
+      .def_property_readonly("device", &PyRun::device)
+      .def("bone_transforms", &PyRun::bone_transforms, py::arg("poses"), py::arg("trans") = py::none(),
+           py::arg("body_model") = "", py::call_guard<py::gil_scoped_release>(),
+           "Axis-angle poses [N, J, 3] (root translations [N, 3]) -> bones [N, J, 4, 4] canonical -> posed, as the "
+           "dataset computes them")
+      .def("mesh", &PyRun::mesh, py::arg("pose") = py::none(), py::arg("trans") = py::none(),
+           py::arg("resolution") = 128, py::arg("initial") = 32, py::arg("largest_component") = false,
+           py::call_guard<py::gil_scoped_release>(),
+           "MISE surface of the canonical shape (pose None) or of one pose [J, 3]: (vertices [V, 3], faces [F, 3])")
+      .def("repose", &PyRun::repose, py::arg("vertices"), py::arg("faces"), py::arg("bones"), py::arg("batch") = 8,
+           py::call_guard<py::gil_scoped_release>(),
+           "Canonical mesh vertices [V, 3] into every pose of bones [N, J, 4, 4] -> [N, V, 3], keeping the faces")
+      .def("occupancy", &PyRun::occupancy, py::arg("points"), py::arg("bones"), py::arg("pose"),
+           py::call_guard<py::gil_scoped_release>(),
+           "Occupancy logits [B, N] of posed points [B, N, 3] (bones [B, J, 4, 4], pose [B, J, 3])")
+      .def("export_gltf", &PyRun::export_gltf, py::arg("path"), py::arg("bones") = py::none(), py::arg("fps") = 30.0,
+           py::arg("influences") = 4, py::arg("resolution") = 128, py::arg("initial") = 32,
+           py::call_guard<py::gil_scoped_release>(),
+           "The canonical mesh with the learned skinning weights as a rigged .glb/.gltf, animated by bones "
+           "[T, J, 4, 4] when given (forward-skinning methods)");
 
   py::class_<VoxelBox>(m, "VoxelBox", "The canonical box of a voxel skinning grid (docs/conventions.md)")
       .def_static(
@@ -297,7 +641,8 @@ PYBIND11_MODULE(_fskin, m) {
       "vertex, then smoothing passes off the surface (fields/preset_skinning_field.h)");
 
   py::class_<PyFastSnarf>(m, "FastSnarfDeformer",
-                          "Fast-SNARF's deformer over a voxel skinning grid [D, H, W, J] (weights summing to 1)")
+                          "Fast-SNARF's deformer over a voxel skinning grid [D, H, W, J] (weights summing to 1); a grid "
+                          "that requires grad receives the roots' implicit gradient")
       .def(py::init<const torch::Tensor&, const VoxelBox&, const py::object&, int, bool, double,
                     std::optional<double>>(),
            py::arg("grid_weights"), py::arg("box"), py::arg("start_bones") = py::none(), py::arg("max_iterations") = 10,
@@ -312,7 +657,11 @@ PYBIND11_MODULE(_fskin, m) {
       .def("deform", &PyFastSnarf::deform, py::arg("x_canonical"), py::arg("bones"),
            py::call_guard<py::gil_scoped_release>(),
            "LBS of canonical points [B, N, 3] with the grid's weights -> posed [B, N, 3]")
-      .def("weights", &PyFastSnarf::weights, py::arg("x_canonical"), "Skinning weights at canonical points [..., J]");
+      .def("weights", &PyFastSnarf::weights, py::arg("x_canonical"), "Skinning weights at canonical points [..., J]")
+      .def_property("grid_weights", &PyFastSnarf::grid_weights, &PyFastSnarf::set_grid_weights,
+                    "The skinning grid [D, H, W, J] the search reads; set a new one (with its graph) before each "
+                    "forward to learn it")
+      .def_property_readonly("box", &PyFastSnarf::box);
 
   py::class_<PySnarf>(m, "SnarfDeformer",
                       "SNARF's deformer over a skinning MLP (softmax(20 logits)) whose parameters the caller optimises")

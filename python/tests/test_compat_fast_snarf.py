@@ -52,15 +52,48 @@ def test_same_roots_as_the_native_deformer():
     assert torch.equal(xc_a, xc_b)
 
 
-def test_learned_skinning_modes_say_they_are_not_provided():
+def _fit_loss(compat, verts_c, xd, tfs):
+    """Squared distance of each posed vertex's nearest valid root to its canonical vertex."""
+    xc, others = compat.forward(xd, {}, tfs)
+    distance = (xc - verts_c[:, :, None]).square().sum(-1) + (~others["valid_ids"]) * 1e3
+    return distance.min(-1).values.clamp(max=1.0).mean()
+
+
+def test_learned_skinning_modes_learn_from_the_roots():
     body = fskin.humanoid(resolution=40)
+    pose = torch.zeros(1, body.num_joints, 3)
+    pose[0, 1:, 2] = 0.3  # every joint bent a little
+    verts, _, tfs = body.forward(pose)
     for mode in ("voxel", "mlp"):
-        try:
-            ForwardDeformer(options(skinning_mode=mode), smpl_like_server(body))
-        except NotImplementedError as e:
-            assert mode in str(e)
-        else:
-            raise AssertionError(mode + " was accepted")
+        torch.manual_seed(0)
+        opt = options(skinning_mode=mode, res=16, network={"width": 32, "depth": 2})
+        compat = ForwardDeformer(opt, smpl_like_server(body))
+        parameters = list(compat.parameters())
+        assert parameters, mode
+        optimiser = torch.optim.Adam(parameters, lr=0.05 if mode == "voxel" else 0.01)
+        losses = []
+        for _ in range(15):
+            loss = _fit_loss(compat, body.v_template[None], verts, tfs)
+            optimiser.zero_grad()
+            loss.backward()
+            assert all(p.grad is not None and p.grad.abs().sum() > 0 for p in parameters), mode
+            optimiser.step()
+            losses.append(loss.item())
+        assert losses[-1] < 0.7 * losses[0], (mode, losses)
+        # eval_mode: no graph, and the grid frozen by precompute(recompute_skinning=False).
+        compat.precompute(tfs, recompute_skinning=False)
+        xc, _ = compat.forward(verts, {}, tfs, eval_mode=True)
+        assert not xc.requires_grad
+
+
+def test_hierarchical_softmax_says_it_is_not_provided():
+    body = fskin.humanoid(resolution=40)
+    try:
+        ForwardDeformer(options(skinning_mode="mlp", softmax_mode="hierarchical"), smpl_like_server(body))
+    except NotImplementedError as e:
+        assert "hierarchical" in str(e)
+    else:
+        raise AssertionError("hierarchical softmax was accepted")
 
 
 def test_preset_smooth_uses_the_diffused_grid():

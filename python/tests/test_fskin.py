@@ -131,6 +131,46 @@ def test_deformer_gradcheck_float64():
             assert relative < 0.05, relative
 
 
+def test_roots_gradcheck_with_respect_to_a_learned_grid_float64():
+    grid, box = chain()
+    bones = bend(0.6)
+    deformer = fskin.FastSnarfDeformer(grid, box, exact_gradient=True, tolerance=1e-12)
+    xd = deformer.deform(canonical_points(4), bones).detach()
+    _, valid = deformer.forward(xd, bones)
+    assert valid.any(-1).all()
+    mask = valid.unsqueeze(-1).double()
+    # A few smooth modes of the grid (the full grid has thousands of entries).
+    centres = box.voxel_centres().double()
+    modes = torch.stack([torch.sin(centres[..., 0] * k) for k in (1.0, 2.0, 3.0)], -1)  # [D, H, W, 3]
+
+    def roots_of_grid(a):
+        deformer.grid_weights = grid + (modes @ a)  # [D, H, W, 2], with a's graph
+        return deformer.forward(xd, bones)[0] * mask
+
+    a = (torch.randn(3, 2, dtype=torch.float64) * 0.01).requires_grad_(True)
+    assert torch.autograd.gradcheck(roots_of_grid, (a,), eps=1e-6, atol=1e-5)
+    deformer.grid_weights = grid  # a fixed grid again: no graph, no gradient
+    assert not deformer.forward(xd, bones)[0].requires_grad
+
+
+def test_grid_skinning_gradcheck_float64():
+    grid, box = chain()
+    xc = canonical_points(5)
+    bones = bend(0.4)
+
+    def skinned(g, x, b):
+        deformer = fskin.FastSnarfDeformer(g, box)
+        return deformer.deform(x, b)
+
+    g = grid.clone().requires_grad_(True)
+    x = xc.clone().requires_grad_(True)
+    b = bones.clone().requires_grad_(True)
+    assert torch.autograd.gradcheck(lambda x_, b_: skinned(grid, x_, b_), (x, b), eps=1e-6, atol=1e-6)
+    out = skinned(g, xc, bones).square().sum()
+    out.backward()
+    assert g.grad is not None and g.grad.abs().sum() > 0
+
+
 def test_bad_input_raises_fskin_error_with_the_message():
     grid, box = chain()
     deformer = fskin.FastSnarfDeformer(grid, box)
@@ -153,8 +193,13 @@ def test_character_size_and_box_follow_the_character():
     assert bool(box.contains(body.v_template).all())
 
 
-def test_training_from_python_lowers_the_loss_like_the_cli(tmp_path):
-    run = lambda *args: subprocess.run([CLI, *args], check=True, capture_output=True)
+def test_training_evaluation_and_inference_from_python_match_the_cli(tmp_path):
+    # The CLI runs the BLAS kernels this process runs (it would switch from SSE3 ones), so both
+    # round alike.
+    env = dict(os.environ)
+    if fskin.openblas_core() is not None:
+        env["OPENBLAS_CORETYPE"] = fskin.openblas_core()
+    run = lambda *args: subprocess.run([CLI, *args], check=True, capture_output=True, env=env)
     model, poses, data = tmp_path / "model.npz", tmp_path / "poses.npz", tmp_path / "data"
     run("character", "--out", str(model), "--resolution", "40")
     run("poses", "train", "--model", str(model), "--out", str(poses), "--sequences", "2", "--frames", "6")
@@ -185,6 +230,41 @@ def test_training_from_python_lowers_the_loss_like_the_cli(tmp_path):
         fskin.evaluate(str(tmp_path / "cli_run"), "test-sideways")
     with pytest.raises(fskin.Error, match="no_such_key"):
         fskin.train(str(data), str(tmp_path / "bad"), steps=1, settings=["no_such_key=1"])
+
+    # The trained run for inference: the canonical mesh `fskin mesh` writes, re-posing,
+    # occupancy and the rigged glTF.
+    trained = fskin.Run(str(tmp_path / "cli_run"))
+    assert trained.method == "fast-snarf" and trained.step == 100 and trained.device == "cpu"
+    assert len(trained.joint_names) == len(trained.parents) == trained.canonical_joints.shape[0]
+    vertices, faces = trained.mesh(resolution=32, initial=8)
+    run("mesh", str(tmp_path / "cli_run"), "--canonical", "--resolution", "32", "--initial", "8", "--quiet",
+        "--out", str(tmp_path / "canonical.ply"))
+    cli_vertices = read_binary_ply_vertices(tmp_path / "canonical.ply")
+    assert vertices.shape[0] == cli_vertices.shape[0] > 0 and faces.shape[1] == 3
+    assert np.allclose(vertices.numpy(), cli_vertices, atol=1e-6)
+    pose_array = torch.from_numpy(np.load(str(poses))["poses"][:2]).float()
+    bones = trained.bone_transforms(pose_array)
+    assert bones.shape == (2, len(trained.parents), 4, 4)
+    moved = trained.repose(vertices, faces, bones)
+    assert moved.shape == (2, vertices.shape[0], 3) and torch.isfinite(moved).all()
+    # The re-posed surface is the learned surface in that pose: its vertices lie on the zero level
+    # set, unlike the same points pushed a tenth of the body's size outwards from its centre.
+    surface = trained.occupancy(moved[:1], bones[:1], pose_array[:1]).abs()
+    centre = moved[0].mean(0)
+    outward = moved[:1] + 0.1 * fskin.character_size(moved[0]) * torch.nn.functional.normalize(moved[:1] - centre, dim=-1)
+    away = trained.occupancy(outward, bones[:1], pose_array[:1]).abs()
+    assert surface.median() < 0.25 * away.median(), (surface.median(), away.median())
+    posed_vertices, _ = trained.mesh(pose=pose_array[0], resolution=32, initial=8)
+    assert posed_vertices.shape[0] > 0
+    trained.export_gltf(str(tmp_path / "avatar.glb"), bones=bones, resolution=32, initial=8)
+    assert open(tmp_path / "avatar.glb", "rb").read(4) == b"glTF"
+    with pytest.raises(fskin.Error, match=".glb or .gltf"):
+        trained.export_gltf(str(tmp_path / "avatar.stl"))
+    with pytest.raises(fskin.Error, match="no config.json"):
+        fskin.Run(str(tmp_path))
+    if not torch.cuda.is_available():
+        with pytest.raises(fskin.Error, match="device cuda"):
+            fskin.Run(str(tmp_path / "cli_run"), device="cuda")
 
 
 def test_snarf_deformer_roots_gradients_and_learning():
@@ -220,3 +300,38 @@ def test_snarf_deformer_roots_gradients_and_learning():
                                     eps=1e-6, atol=1e-5)
     with pytest.raises(fskin.Error, match="dtype"):
         tight.to("float16")
+
+
+def _random_pin(dtype):
+    torch.manual_seed(11)
+    pin = fskin.Pin(num_layers=7, embedding_dim=6, space_hidden_dim=12, map_hidden_dim=8, first_omega=10.0,
+                    hidden_omega=10.0)
+    with torch.no_grad():  # away from the identity it starts as
+        for p in pin.parameters():
+            p.copy_(torch.randn_like(p) * 0.3)
+    pin.to(dtype)
+    return pin
+
+
+def test_pin_gradcheck_and_inverse_float64():
+    pin = _random_pin("float64")
+    x = (torch.rand(2, 5, 3, dtype=torch.float64) * 2 - 1).requires_grad_(True)
+    z = torch.randn(2, 6, dtype=torch.float64).requires_grad_(True)
+    assert torch.autograd.gradcheck(pin.forward, (x, z), eps=1e-6, atol=1e-5)
+    assert torch.autograd.gradcheck(pin.inverse, (x, z), eps=1e-6, atol=1e-5)
+    back = pin.inverse(pin.forward(x, z), z)
+    assert (back - x).abs().max() < 1e-9
+    pin.forward(x, z).square().sum().backward()
+    assert all(p.grad is not None for p in pin.parameters())
+    assert sum(float(p.grad.abs().sum()) for p in pin.parameters()) > 0
+
+
+def test_pin_fused_kernel_matches_the_module():
+    pin = _random_pin("float32")
+    x = torch.rand(3, 101, 3) * 2 - 1
+    z = torch.randn(3, 6)
+    for inverse in (False, True):
+        expected = (pin.inverse if inverse else pin.forward)(x, z)
+        assert (pin.fused(x, z, inverse) - expected).abs().max() < 1e-4
+    with pytest.raises(fskin.Error, match="float32"):
+        pin.fused(x.double(), z.double())

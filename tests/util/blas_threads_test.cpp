@@ -27,5 +27,21 @@ TEST(BlasThreads, OpenBlasRunsOnTheCallingThreadAndStillMultipliesCorrectly) {
   EXPECT_LT((torch::mm(a, b).to(torch::kFloat64) - reference).abs().max().item<double>(), 1e-3);
 }
 
+TEST(BlasThreads, AScopeRestoresThePreviousThreadCount) {
+  using GetThreads = int (*)();
+  using SetThreads = void (*)(int);
+  auto* get_threads = reinterpret_cast<GetThreads>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
+  auto* set_threads = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+  if (get_threads == nullptr || set_threads == nullptr) GTEST_SKIP() << "BLAS is not OpenBLAS";
+  set_threads(2);
+  const int before = get_threads();  // 2, or 1 where OpenBLAS has one thread at most
+  {
+    const SingleThreadedBlasScope scope;
+    EXPECT_EQ(get_threads(), 1);
+  }
+  EXPECT_EQ(get_threads(), before);
+  use_single_threaded_blas();  // the suite's setting again
+}
+
 }  // namespace
 }  // namespace fskin

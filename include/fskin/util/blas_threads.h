@@ -13,4 +13,18 @@ namespace fskin {
 // (docs/benchmarks.md, "CPU threads").
 bool use_single_threaded_blas();
 
+// use_single_threaded_blas() for one scope, the previous thread count back at
+// its end: the Python module's training and evaluation run as the CLI's do,
+// inside a process whose other products keep the user's setting.
+class SingleThreadedBlasScope {
+ public:
+  SingleThreadedBlasScope();
+  ~SingleThreadedBlasScope();
+  SingleThreadedBlasScope(const SingleThreadedBlasScope&) = delete;
+  SingleThreadedBlasScope& operator=(const SingleThreadedBlasScope&) = delete;
+
+ private:
+  int previous_ = -1;  // -1: not OpenBLAS, nothing to restore
+};
+
 }  // namespace fskin

@@ -11,9 +11,15 @@ of bones, with no compilation at import time. docs/python.md maps every option
 and output. What differs: the deformer finds roots for the whole batch in one
 call, so `precompute` has nothing to return; `others` holds 'result' and
 'valid_ids' but not Broyden's 'J_inv' (the implicit gradient is attached to
-`xc` by fskin itself); grids use align_corners=True; only the preset skinning
-modes are provided: 'voxel' and 'mlp' (learned weights) raise
-NotImplementedError (fskin's own trainer learns them).
+`xc` by fskin itself); grids use align_corners=True. Skinning modes: 'preset'
+and 'preset_smooth' (fixed grids), 'voxel' (a learned grid `lbs_voxel`
+[1, J, D, H, W], softmax(soft_blend * lbs_voxel) over bones, as the reference)
+and 'mlp' (an MLP `lbs_network` from canonical points to J logits evaluated at
+every voxel centre, softmax(soft_blend * logits); the reference's
+ImplicitNetwork options `width`, `depth` and `d_out` are read from
+opt.network when given). The learned modes' gradients reach their parameters
+through the roots' implicit gradient; 'hierarchical' softmax (SMPL's 24-bone
+tree only) is not provided.
 """
 import torch
 
@@ -61,6 +67,10 @@ class ForwardDeformer(torch.nn.Module):
         self.cvg = float(_option(opt, "cvg", 1e-4))
         self.n_iters = int(_option(opt, "n_iters", 10))
         self.length_unit = character_size(verts) / 1.7
+        self.soft_blend = float(_option(opt, "soft_blend", 20))
+        self.exact_gradient = bool(_option(opt, "use_slow_grad", False))
+        if _option(opt, "softmax_mode", "softmax") == "hierarchical":
+            raise NotImplementedError("softmax_mode 'hierarchical' (SMPL's bone tree only): use 'softmax'")
         d, h, w = self.box.shape
         if self.mode == "preset":
             centres = self.box.voxel_centres().reshape(-1, 3)
@@ -68,23 +78,52 @@ class ForwardDeformer(torch.nn.Module):
             self.register_buffer("lbs_voxel_final", grid.contiguous())
         elif self.mode == "preset_smooth":  # fskin's diffusion: nearest vertex, smoothed off the surface
             self.register_buffer("lbs_voxel_final", diffuse_weights_to_grid(verts, weights, self.box).contiguous())
+        elif self.mode == "voxel":
+            self.lbs_voxel = torch.nn.Parameter(0.001 * torch.ones(1, self.num_bones, d, h, w))
+        elif self.mode == "mlp":
+            network = _option(opt, "network", {}) or {}
+            self.lbs_network = _mlp(3, int(_option(network, "d_out", self.num_bones)),
+                                    int(_option(network, "width", 128)), int(_option(network, "depth", 4)))
+            self.register_buffer("voxel_centres", self.box.voxel_centres().reshape(-1, 3).contiguous())
         else:
             raise NotImplementedError(
-                f"skinning_mode '{self.mode}': fskin.compat.fast_snarf provides 'preset' and 'preset_smooth'; "
-                "learned skinning ('voxel', 'mlp') is fskin's trainer's job")
+                f"skinning_mode '{self.mode}': fskin.compat.fast_snarf provides 'preset', 'preset_smooth', "
+                "'voxel' and 'mlp'")
 
-    def _deformer(self, device, dtype):
-        return FastSnarfDeformer(self.lbs_voxel_final.to(device=device, dtype=dtype), self.box, start_bones=self.init_bones,
-                                 max_iterations=self.n_iters, length_unit=self.length_unit, tolerance=self.cvg)
+    def skinning_grid(self):
+        """The grid the search reads, [D, H, W, J] (fskin's layout), with the learned modes' graph."""
+        if self.mode == "voxel":
+            return torch.softmax(self.soft_blend * self.lbs_voxel[0], dim=0).permute(1, 2, 3, 0)
+        if self.mode == "mlp":
+            d, h, w = self.box.shape
+            logits = self.lbs_network(self.voxel_centres)
+            return torch.softmax(self.soft_blend * logits, dim=-1).reshape(d, h, w, -1)
+        return self.lbs_voxel_final
+
+    def _deformer(self, device, dtype, grid=None):
+        grid = self.skinning_grid() if grid is None else grid
+        return FastSnarfDeformer(grid.to(device=device, dtype=dtype), self.box, start_bones=self.init_bones,
+                                 max_iterations=self.n_iters, length_unit=self.length_unit, tolerance=self.cvg,
+                                 exact_gradient=self.exact_gradient)
 
     def precompute(self, tfs=None, recompute_skinning=True):
-        """fskin precomputes inside forward (one fused search per call): nothing to do."""
+        """fskin precomputes inside forward (one fused search per call): nothing to return. With
+        recompute_skinning=False later eval-mode calls reuse the learned grid as it is now."""
+        if not recompute_skinning and self.mode in ("voxel", "mlp"):
+            with torch.no_grad():
+                self._eval_grid = self.skinning_grid().detach()
         return None
 
     def forward(self, xd, cond, tfs, mask=None, eval_mode=False):
-        """xd [B, N, 3], tfs [B, J, 4, 4] -> xc [B, N, I, 3], {'result', 'valid_ids'}."""
-        deformer = self._deformer(xd.device, xd.dtype)
-        xc, valid = deformer.forward(xd, tfs.to(xd.dtype))
+        """xd [B, N, 3], tfs [B, J, 4, 4] -> xc [B, N, I, 3], {'result', 'valid_ids'}. Outside
+        eval_mode a learned grid's gradient flows from xc to its parameters; in eval_mode xc has
+        no graph (as the reference, which skips the correction)."""
+        if eval_mode:
+            with torch.no_grad():
+                grid = getattr(self, "_eval_grid", None) if self.mode in ("voxel", "mlp") else None
+                xc, valid = self._deformer(xd.device, xd.dtype, grid).forward(xd, tfs.to(xd.dtype))
+        else:
+            xc, valid = self._deformer(xd.device, xd.dtype).forward(xd, tfs.to(xd.dtype))
         if mask is not None:
             valid = valid & mask.expand_as(valid)
         return xc, {"result": xc.detach(), "valid_ids": valid}
@@ -96,3 +135,13 @@ class ForwardDeformer(torch.nn.Module):
     def query_weights(self, xc, cond=None, mask=None):
         """Skinning weights at canonical points [B, N, 3] -> [B, N, J]."""
         return self._deformer(xc.device, xc.dtype).weights(xc)
+
+
+def _mlp(d_in, d_out, width, depth):
+    """A plain MLP (Softplus(beta=100) hidden activations, as the reference's ImplicitNetwork)."""
+    layers, size = [], d_in
+    for _ in range(depth):
+        layers += [torch.nn.Linear(size, width), torch.nn.Softplus(beta=100)]
+        size = width
+    layers.append(torch.nn.Linear(size, d_out))
+    return torch.nn.Sequential(*layers)

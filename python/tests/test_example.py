@@ -1,0 +1,31 @@
+"""The example script runs end to end (quick sizes) and writes what it says."""
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+import fskin
+
+EXAMPLE = os.path.join(os.path.dirname(__file__), "..", "examples", "train_and_repose.py")
+
+
+@pytest.mark.skipif(not fskin.built_with_embree(), reason="building a dataset needs Embree")
+def test_train_and_repose_example(tmp_path):
+    out = tmp_path / "example"
+    done = subprocess.run([sys.executable, EXAMPLE, str(out), "--quick", "--steps", "30"], capture_output=True,
+                          text=True, env=dict(os.environ))
+    assert done.returncode == 0, done.stdout + done.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["steps"] == 30 and summary["method"] == "fast-snarf"
+    assert 0.0 <= summary["test_ood_iou_surf"] <= 1.0
+    assert summary["reposed_frames"] == 2
+    canonical_vertices, canonical_faces = fskin.read_mesh(str(out / "canonical.ply"))
+    assert canonical_vertices.shape[0] == summary["canonical_vertices"] > 0
+    for n in range(2):
+        vertices, faces = fskin.read_mesh(str(out / f"unseen_{n}.ply"))
+        assert vertices.shape == canonical_vertices.shape and (faces == canonical_faces).all()
+        assert (vertices - canonical_vertices).abs().max() > 0  # it moved
+    assert (out / "avatar.glb").read_bytes()[:4] == b"glTF"
+    assert (out / "run" / "eval-test-ood.json").exists()
