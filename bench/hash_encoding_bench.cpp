@@ -7,20 +7,18 @@
 
 #include <thread>
 
+#include "bench_device.h"
 #include "fskin/ops/hash_encoding.h"
 
 namespace {
 
 // range(0): 1 fused, 0 LibTorch reference; range(1): 0 CPU, 1 CUDA.
 void BM_HashEncodingForwardBackward(benchmark::State& state) {
-  at::set_num_threads(static_cast<int>(std::thread::hardware_concurrency()));
   const bool fused = state.range(0) == 1;
   const bool cuda = state.range(1) == 1;
-  if (cuda && !torch::cuda::is_available()) {
-    state.SkipWithError("no CUDA device");
-    return;
-  }
-  const torch::Device device = cuda ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
+  const auto chosen = fskin::bench::benchmark_device(state, cuda);
+  if (!chosen) return;
+  const torch::Device device = *chosen;
   fskin::HashEncodingOptions o;  // L 16, F 2, T 19, N_min 16, b 1.5
   const int64_t n = 1 << 20;
   torch::manual_seed(0);

@@ -6,20 +6,18 @@
 
 #include <thread>
 
+#include "bench_device.h"
 #include "fskin/ops/ray_compositing.h"
 
 namespace {
 
 // range(0): 1 fused, 0 LibTorch reference; range(1): 0 CPU, 1 CUDA.
 void BM_RayCompositingForwardBackward(benchmark::State& state) {
-  at::set_num_threads(static_cast<int>(std::thread::hardware_concurrency()));
   const bool fused = state.range(0) == 1;
   const bool cuda = state.range(1) == 1;
-  if (cuda && !torch::cuda::is_available()) {
-    state.SkipWithError("no CUDA device");
-    return;
-  }
-  const torch::Device device = cuda ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
+  const auto chosen = fskin::bench::benchmark_device(state, cuda);
+  if (!chosen) return;
+  const torch::Device device = *chosen;
   const int64_t rays = 1 << 16, samples = 64;
   torch::manual_seed(0);
   const auto sigma = (torch::rand({rays, samples}) * 10).to(device).requires_grad_(true);

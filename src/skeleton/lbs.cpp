@@ -35,15 +35,16 @@ torch::Tensor linear_blend_skinning(const torch::Tensor& points, const torch::Te
 }
 
 torch::Tensor invert_transforms(const torch::Tensor& transforms) {
-  FSKIN_CHECK(transforms.dim() >= 2 && transforms.size(-1) == 4 && transforms.size(-2) == 4,
-              "invert_transforms: expected [..., 4, 4], got {}", shape_string(transforms.sizes()));
-  expect_finite(transforms, "invert_transforms: transforms");
-  const auto rot = transforms.index({Ellipsis, Slice(0, 3), Slice(0, 3)});
-  const auto det = torch::det(rot);
-  FSKIN_CHECK((det.abs() > 1e-8).all().item<bool>(),
-              "invert_transforms: singular transform (|det| <= 1e-8 for {} of {} matrices)",
-              (det.abs() <= 1e-8).sum().item<int64_t>(), det.numel());
-  return invert_transforms_on_device(transforms).inverse;
+  // The same inverse as on a device, with its check read at once; the details
+  // (which values, how many matrices) only when it fails.
+  auto result = invert_transforms_on_device(transforms);
+  if (!result.invertible.item<bool>()) {
+    expect_finite(transforms, "invert_transforms: transforms");
+    const auto det = torch::det(transforms.index({Ellipsis, Slice(0, 3), Slice(0, 3)}));
+    fail("invert_transforms: singular transform (|det| <= 1e-8 for {} of {} matrices)",
+         (det.abs() <= 1e-8).sum().item<int64_t>(), det.numel());
+  }
+  return result.inverse;
 }
 
 TransformInverse invert_transforms_on_device(const torch::Tensor& transforms) {
