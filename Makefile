@@ -8,7 +8,7 @@ export CCACHE_SLOPPINESS := pch_defines,time_macros,include_file_mtime,include_f
 # Paths relative to the checkout, so every clone shares the cache.
 export CCACHE_BASEDIR ?= $(CURDIR)
 
-.PHONY: setup configure build test demo demo-quadruped bench python sanitize clean
+.PHONY: setup configure build test demo demo-quadruped demo-avatar bench python sanitize clean
 
 setup:
 	bash scripts/setup.sh
@@ -30,6 +30,11 @@ demo: build
 # The same job on the built-in 33-joint quadruped, with the same defaults.
 demo-quadruped: build
 	FSKIN_DEMO_KIND=quadruped bash scripts/demo.sh $(BUILD_DIR)/fskin demo-quadruped
+
+# A textured avatar learned from rendered images of the built-in character
+# (Fast-SNARF sec. 7): dataset, training, PSNR per split, pictures.
+demo-avatar: build
+	bash scripts/demo_avatar.sh $(BUILD_DIR)/fskin demo-avatar-output
 
 # The Python module: build/python/fskin (use with PYTHONPATH=build/python).
 python: configure

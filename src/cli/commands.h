@@ -5,6 +5,7 @@
 namespace fskin::cli {
 
 void register_animate(CLI::App& app);
+void register_avatar(CLI::App& app);
 void register_bench(CLI::App& app);
 void register_character(CLI::App& app);
 void register_export(CLI::App& app);

@@ -8,6 +8,7 @@
 #include "fskin/body/body_model.h"
 #include "fskin/data/dataset_builder.h"
 #include "fskin/data/stick2d.h"
+#include "fskin/radiance/image_dataset.h"
 
 namespace fskin::cli {
 
@@ -60,6 +61,54 @@ void register_data(CLI::App& app) {
     options.progress = !opt->quiet;
     const auto summary = build_dataset(model, poses, ood, options);
     std::printf("%s: %s\n", opt->out.c_str(), summary.to_string().c_str());
+  });
+
+  struct ImagesOptions {
+    std::string model, poses, held_out_poses;
+    ImageDatasetOptions dataset;
+    int size = 0;
+    bool quiet = false;
+  };
+  auto images_opt = std::make_shared<ImagesOptions>();
+  auto* images = cmd->add_subcommand(
+      "images", "Render a model, textured (SurfaceTexture), in posed frames into an image dataset: cameras.npz, "
+                "images, masks and bone transforms per split (train, novel_view, novel_pose); resumable");
+  images->add_option("--model", images_opt->model, "SMPL-format model .npz")->required();
+  images->add_option("--poses", images_opt->poses, "training pose file .npz (train and novel_view)")->required();
+  images->add_option("--held-out-poses", images_opt->held_out_poses, "pose file .npz of the novel_pose split");
+  images->add_option("--out", images_opt->dataset.out_dir, "output directory")->required();
+  images->add_option("--size", images_opt->size, "width and height in pixels")->check(CLI::Range(8, 4096));
+  images->add_option("--width", images_opt->dataset.width, "image width")->check(CLI::Range(8, 4096));
+  images->add_option("--height", images_opt->dataset.height, "image height")->check(CLI::Range(8, 4096));
+  images->add_option("--views", images_opt->dataset.training_views, "training cameras on a ring around the subject")
+      ->check(CLI::Range(1, 64));
+  images->add_option("--held-out-views", images_opt->dataset.held_out_views,
+                     "held-out cameras, between the training ones")
+      ->check(CLI::Range(1, 64));
+  images->add_flag("--monocular", images_opt->dataset.monocular,
+                   "one training camera, the subject turning once about +Y over the training poses");
+  images->add_option("--novel-view-frames", images_opt->dataset.novel_view_frames,
+                     "training poses rendered from the held-out views")
+      ->check(CLI::NonNegativeNumber);
+  images->add_option("--supersampling", images_opt->dataset.supersampling, "s x s samples per pixel")
+      ->check(CLI::Range(1, 8));
+  images->add_option("--canonical-pose", images_opt->dataset.canonical_pose, "canonical pose: default, da or rest")
+      ->check(CLI::IsMember({"default", "da", "rest"}));
+  images->add_flag("--black-background", [images_opt](int64_t) { images_opt->dataset.background = {0, 0, 0}; },
+                   "black instead of white background");
+  images->add_flag("--quiet", images_opt->quiet, "no progress bar");
+  images->callback([images_opt] {
+    auto options = images_opt->dataset;
+    if (images_opt->size > 0) options.width = options.height = images_opt->size;
+    const auto model = BodyModel::load(images_opt->model);
+    const auto poses = PoseSet::load(images_opt->poses);
+    const auto held_out = images_opt->held_out_poses.empty() ? PoseSet{} : PoseSet::load(images_opt->held_out_poses);
+    options.model_source = std::filesystem::absolute(images_opt->model).string();
+    options.poses_source = images_opt->poses;
+    options.ood_poses_source = images_opt->held_out_poses;
+    options.progress = !images_opt->quiet;
+    const auto summary = build_image_dataset(model, poses, held_out, options);
+    std::printf("%s: %s\n", options.out_dir.c_str(), summary.to_string().c_str());
   });
 
   auto stick_opt = std::make_shared<StickDatasetOptions>();

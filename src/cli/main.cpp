@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "CPU threads for LibTorch and fskin kernels")
       ->check(CLI::PositiveNumber);
   fskin::cli::register_animate(app);
+  fskin::cli::register_avatar(app);
   fskin::cli::register_bench(app);
   fskin::cli::register_character(app);
   fskin::cli::register_export(app);

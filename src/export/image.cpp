@@ -1,8 +1,10 @@
 #include "fskin/export/image.h"
 
+#include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
 #include <cstring>
+#include <memory>
 
 #include "fskin/core/error.h"
 #include "fskin/util/atomic_file.h"
@@ -37,6 +39,51 @@ void write_png(const std::string& path, const Image& image) {
                                         image.rgb.data(), 3 * image.width);
   FSKIN_CHECK(ok != 0, "{}: PNG encoding failed", path);
   write_file_atomically(path, bytes);
+}
+
+void write_png_gray(const std::string& path, int width, int height, const std::vector<uint8_t>& gray) {
+  FSKIN_CHECK(width > 0 && height > 0 && gray.size() == static_cast<size_t>(width) * height,
+              "{}: cannot write an empty or inconsistent {}x{} grey image", path, width, height);
+  std::string bytes;
+  const auto append = [](void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data), size);
+  };
+  const int ok = stbi_write_png_to_func(append, &bytes, width, height, 1, gray.data(), width);
+  FSKIN_CHECK(ok != 0, "{}: PNG encoding failed", path);
+  write_file_atomically(path, bytes);
+}
+
+namespace {
+
+// The file's pixels with `channels` channels per pixel (stb converts).
+std::vector<uint8_t> decode_png(const std::string& path, int channels, int& width, int& height) {
+  const std::string bytes = read_file(path);
+  int stored_channels = 0;
+  std::unique_ptr<stbi_uc, void (*)(void*)> pixels(
+      stbi_load_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()), static_cast<int>(bytes.size()),
+                            &width, &height, &stored_channels, channels),
+      stbi_image_free);
+  FSKIN_CHECK(pixels != nullptr, "{}: not a readable PNG image ({})", path, stbi_failure_reason());
+  FSKIN_CHECK(!stbi_is_16_bit_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()),
+                                          static_cast<int>(bytes.size())),
+              "{}: 16-bit PNGs are not supported; store 8 bits per channel", path);
+  return {pixels.get(), pixels.get() + static_cast<size_t>(width) * height * channels};
+}
+
+}  // namespace
+
+Image read_png(const std::string& path) {
+  Image image;
+  image.rgb = decode_png(path, 3, image.width, image.height);
+  return image;
+}
+
+std::vector<uint8_t> read_png_gray(const std::string& path, int& width, int& height) {
+  // The first channel, not stb's luminance: masks saved as RGB are equal in all three.
+  const auto rgb = decode_png(path, 3, width, height);
+  std::vector<uint8_t> gray(static_cast<size_t>(width) * height);
+  for (size_t i = 0; i < gray.size(); ++i) gray[i] = rgb[3 * i];
+  return gray;
 }
 
 }  // namespace fskin

@@ -315,4 +315,47 @@ Image render_grid(const std::vector<Mesh>& meshes, const std::vector<ViewAngles>
   return grid;
 }
 
+SurfaceRender render_surface(const Mesh& mesh, const Camera& camera, int width, int height,
+                             int supersampling, const SurfaceShader& shade, Rgb8 background) {
+  mesh.validate("render_surface: mesh");
+  FSKIN_CHECK(mesh.num_faces() > 0, "render_surface: mesh has no faces");
+  FSKIN_CHECK(width > 0 && height > 0 && width <= 16384 && height <= 16384,
+              "render_surface: picture size must be within 1..16384, got {}x{}", width, height);
+  FSKIN_CHECK(supersampling >= 1 && supersampling <= 8,
+              "render_surface: supersampling must be within 1..8, got {}", supersampling);
+  const auto vertices = mesh.vertices.contiguous();
+  const auto faces = mesh.faces.contiguous();
+  const int s = supersampling;
+  const int sample_width = width * s, sample_height = height * s;
+  const auto fragments = rasterize(vertices.data_ptr<float>(), faces.data_ptr<int64_t>(), mesh.num_faces(),
+                                   camera, sample_width, sample_height);
+  const Eigen::Vector3f back = to_unit(background);
+  SurfaceRender out{Image(width, height), std::vector<uint8_t>(static_cast<size_t>(width) * height)};
+  at::parallel_for(0, height, 8, [&](int64_t begin, int64_t end) {
+    for (int64_t y = begin; y < end; ++y) {
+      for (int x = 0; x < width; ++x) {
+        Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+        int covered = 0;
+        for (int sy = 0; sy < s; ++sy) {
+          for (int sx = 0; sx < s; ++sx) {
+            const Fragment& f = fragments[static_cast<size_t>(y * s + sy) * sample_width + x * s + sx];
+            if (f.face < 0) {
+              sum += back;
+              continue;
+            }
+            ++covered;
+            sum += shade(f.face, 1 - f.b1 - f.b2, f.b1, f.b2).cwiseMax(0.0f).cwiseMin(1.0f);
+          }
+        }
+        uint8_t* pixel = out.image.pixel(x, static_cast<int>(y));
+        for (int c = 0; c < 3; ++c)
+          pixel[c] = static_cast<uint8_t>(std::lround(255.0f * sum[c] / static_cast<float>(s * s)));
+        out.mask[static_cast<size_t>(y) * width + x] =
+            static_cast<uint8_t>(std::lround(255.0 * covered / (s * s)));
+      }
+    }
+  });
+  return out;
+}
+
 }  // namespace fskin

@@ -27,5 +27,14 @@ struct Image {
 
 // Writes `image` as PNG, atomically; throws fskin::Error naming `path` on failure.
 void write_png(const std::string& path, const Image& image);
+// Writes width x height 8-bit grey values (row-major, top row first) as a PNG.
+void write_png_gray(const std::string& path, int width, int height, const std::vector<uint8_t>& gray);
+
+// Reads an 8-bit PNG (grey, grey + alpha, RGB or RGBA) as RGB, alpha dropped;
+// throws fskin::Error naming `path` when it is missing or not such a PNG.
+Image read_png(const std::string& path);
+// Reads a PNG as 8-bit grey values (the first channel of a colour PNG);
+// sets width and height.
+std::vector<uint8_t> read_png_gray(const std::string& path, int& width, int& height);
 
 }  // namespace fskin

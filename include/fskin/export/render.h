@@ -9,6 +9,8 @@
 // fskin. The renderer is deterministic, so tests can check its pixels.
 #include <Eigen/Core>
 
+#include <cstdint>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
@@ -96,5 +98,22 @@ Image render_mesh(const Mesh& mesh, const RenderOptions& options);
 // frame the union of the meshes' boxes, so sizes and motion compare directly.
 Image render_grid(const std::vector<Mesh>& meshes, const std::vector<ViewAngles>& views,
                   const RenderOptions& options);
+
+// A picture and its coverage, for datasets of rendered frames (image + mask).
+struct SurfaceRender {
+  Image image;
+  std::vector<uint8_t> mask;  // width * height, 255 * the covered fraction of each pixel
+};
+
+// Colour in [0, 1] of the surface point at barycentrics (b0, b1, b2) of face
+// `face` (corners faces[face][0..2]). Called concurrently from several threads.
+using SurfaceShader = std::function<Eigen::Vector3f(int64_t face, float b0, float b1, float b2)>;
+
+// Renders `mesh` seen by `camera` into width x height pixels with s x s
+// samples per pixel (box-filtered), each covered sample coloured by `shade`
+// (no lighting: the shader's colour is the radiance), the others
+// `background`. The same rasteriser as render_mesh.
+SurfaceRender render_surface(const Mesh& mesh, const Camera& camera, int width, int height,
+                             int supersampling, const SurfaceShader& shade, Rgb8 background);
 
 }  // namespace fskin

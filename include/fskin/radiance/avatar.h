@@ -1,0 +1,89 @@
+#pragma once
+// An animatable avatar from images (Fast-SNARF sec. 7): a canonical radiance
+// field (radiance_field.h) seen through the Fast-SNARF deformer with the
+// character's skinning weights diffused into a voxel grid (preset weights,
+// fields/preset_skinning_field.h). A posed sample x' is mapped to all its
+// canonical correspondences, the field is evaluated at each, and the one of
+// largest density gives the sample its density and colour (sec. 7); the
+// samples are composited along each ray (ops/ray_compositing.h, eq. 18-19).
+// Empty space is skipped with occupancy grids (occupancy_grid.h): a canonical
+// one refreshed from the field's density, a posed one per frame from it.
+#include <torch/torch.h>
+
+#include <array>
+#include <memory>
+
+#include "fskin/deformers/fast_snarf_deformer.h"
+#include "fskin/fields/voxel_skinning_field.h"
+#include "fskin/radiance/image_dataset.h"
+#include "fskin/radiance/occupancy_grid.h"
+#include "fskin/radiance/radiance_field.h"
+
+namespace fskin {
+
+struct AvatarOptions {
+  RadianceFieldOptions field;
+  int64_t skinning_grid_resolution = 64;  // voxels along the canonical box's longest side
+  int64_t canonical_grid_resolution = 64;
+  int64_t posed_grid_resolution = 48;
+  // Samples along the diagonal of a frame's posed box (the step of every ray).
+  int64_t samples_per_diagonal = 320;
+  int64_t start_bones = 3;  // Broyden starts per sample (the most likely bones)
+  // Canonical cells are occupied where sigma * step > this (an opacity of about 0.5 %).
+  double occupancy_opacity = 0.005;
+  void validate() const;
+};
+
+// A frame ready to render: its bones and the posed box and grid.
+struct PosedFrame {
+  torch::Tensor bones;  // [J, 4, 4] canonical -> posed
+  OccupancyGrid grid;   // posed space
+  double step = 0;      // distance between samples along a ray
+};
+
+struct RayRender {
+  torch::Tensor color;    // [R, 3]
+  torch::Tensor opacity;  // [R]
+  int64_t samples = 0;    // samples in occupied cells (evaluated)
+};
+
+class AvatarImpl : public torch::nn::Module {
+ public:
+  AvatarImpl(const AvatarCharacter& character, AvatarOptions options);
+
+  // The posed frame of bones [J, 4, 4] (float32, canonical -> posed).
+  PosedFrame pose(const torch::Tensor& bones);
+  // Renders rays (origins, unit directions [R, 3]) against background [R, 3]:
+  // differentiable in the field's parameters. jitter: a random offset of the
+  // samples along each ray (training), else the samples sit at fixed steps.
+  RayRender render_rays(const PosedFrame& frame, const torch::Tensor& origins, const torch::Tensor& directions,
+                        const torch::Tensor& background, bool jitter);
+  // A whole picture [H, W, 3] float in [0, 1] and its opacity [H, W], without gradients.
+  std::pair<torch::Tensor, torch::Tensor> render_image(const PosedFrame& frame, const PinholeCamera& camera,
+                                                       const std::array<double, 3>& background,
+                                                       int64_t rays_per_chunk = 16384);
+  // Re-marks the canonical occupancy grid from the field's density (at
+  // jittered points in each cell), dilated by one cell.
+  void update_canonical_occupancy();
+  // Every canonical cell occupied (before the field has learned anything).
+  void reset_canonical_occupancy();
+
+  RadianceField& field() { return field_; }
+  // The canonical occupancy grid (a copy of the module's buffer "canonical_occupancy").
+  OccupancyGrid canonical_grid() const;
+  const AvatarOptions& options() const { return options_; }
+  FastSnarfDeformer& deformer() { return *deformer_; }
+  std::array<double, 3> canonical_lower() const { return lower_; }
+  std::array<double, 3> canonical_upper() const { return upper_; }
+
+ private:
+  AvatarOptions options_;
+  std::array<double, 3> lower_, upper_;
+  std::shared_ptr<FrozenSkinningField> skinning_;
+  std::unique_ptr<FastSnarfDeformer> deformer_;
+  RadianceField field_{nullptr};
+  torch::Tensor occupancy_;  // [R, R, R] uint8, saved with the module
+};
+TORCH_MODULE(Avatar);
+
+}  // namespace fskin

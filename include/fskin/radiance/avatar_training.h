@@ -1,0 +1,62 @@
+#pragma once
+// Training an avatar from an image dataset (Fast-SNARF sec. 7): batches of
+// rays from the training images, Huber loss on colour (eq. 20) plus L1 on
+// opacity against the mask (eq. 21), Adam. Crash-safe like the scan trainer:
+// checkpoints (training/checkpoint.h) every `checkpoint_every` steps and on
+// Ctrl-C, `resume` continues from the newest intact one; a progress bar and
+// a JSON-lines log.
+// A run directory holds avatar.json (options, dataset), canonical.npz (the
+// character), checkpoint-*.fskin and log.jsonl.
+#include <cstdint>
+#include <string>
+
+#include "fskin/radiance/avatar.h"
+#include "fskin/training/stop_signal.h"
+
+namespace fskin {
+
+struct AvatarTrainOptions {
+  std::string data_dir, out_dir;
+  AvatarOptions avatar;
+  int64_t steps = 2000;
+  int64_t rays_per_step = 4096;
+  int64_t images_per_step = 4;  // rays are drawn from this many training images per step
+  // Fraction of the rays drawn inside each image's mask box (grown by 10 %);
+  // the rest anywhere in the image.
+  double mask_box_fraction = 0.9;
+  double learning_rate = 1e-2;  // Adam, hash table and MLP
+  double huber_delta = 0.1;     // eq. 20
+  double opacity_weight = 0.1;  // eq. 21
+  // Background of the rendered rays: "dataset" (the images' own), "white",
+  // "black" or "random" (a colour per ray; the target is re-composited onto it
+  // with the mask).
+  std::string background = "random";
+  int64_t occupancy_every = 100;   // steps between canonical occupancy updates
+  int64_t occupancy_warmup = 200;  // all cells occupied until this step
+  int64_t checkpoint_every = 500;
+  int64_t log_every = 50;
+  uint64_t seed = 0;
+  bool resume = false;
+  bool progress = true;
+  const StopSignal* stop = nullptr;  // the CLI's Ctrl-C handler; checked before every step
+  void validate() const;
+};
+
+struct AvatarTrainSummary {
+  int64_t first_step = 0, last_step = 0;
+  double seconds = 0;
+  double final_loss = 0, final_psnr = 0;  // of the last logged batch
+  bool stopped = false;  // by Ctrl-C / SIGTERM
+};
+
+AvatarTrainSummary train_avatar(const AvatarTrainOptions& options);
+
+// A trained avatar loaded from its run directory (newest intact checkpoint).
+struct TrainedAvatar {
+  Avatar avatar{nullptr};
+  AvatarTrainOptions options;
+  int64_t step = 0;
+  static TrainedAvatar load(const std::string& run_dir);
+};
+
+}  // namespace fskin

@@ -1,0 +1,213 @@
+// fskin avatar train | eval | render | mesh: textured avatars learned from
+// image datasets (Fast-SNARF sec. 7; src/radiance).
+#include <torch/torch.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "cli/commands.h"
+#include "fskin/core/error.h"
+#include "fskin/export/image.h"
+#include "fskin/io/mesh_io.h"
+#include "fskin/radiance/avatar_evaluation.h"
+#include "fskin/radiance/avatar_mesh.h"
+#include "fskin/radiance/avatar_training.h"
+#include "fskin/training/stop_signal.h"
+#include "fskin/util/atomic_file.h"
+
+namespace fskin::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+Image to_image(const torch::Tensor& rgb) {
+  const auto bytes = (rgb.clamp(0, 1) * 255).round().to(torch::kUInt8).contiguous();
+  Image image(static_cast<int>(rgb.size(1)), static_cast<int>(rgb.size(0)));
+  std::memcpy(image.rgb.data(), bytes.data_ptr<uint8_t>(), image.rgb.size());
+  return image;
+}
+
+std::vector<int64_t> parse_indices(const std::string& text, int64_t count, const std::string& split) {
+  std::vector<int64_t> out;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) {
+    int64_t value = 0;
+    try {
+      size_t used = 0;
+      value = std::stoll(item, &used);
+      FSKIN_CHECK(used == item.size(), "--index: '{}' is not a number", item);
+    } catch (const std::logic_error&) {
+      fail("--index: '{}' is not a number", item);
+    }
+    FSKIN_CHECK(value >= 0 && value < count, "--index {} is out of range: split '{}' has {} images", value, split,
+                count);
+    out.push_back(value);
+  }
+  FSKIN_CHECK(!out.empty(), "--index: no image given");
+  return out;
+}
+
+}  // namespace
+
+void register_avatar(CLI::App& app) {
+  auto* cmd = app.add_subcommand("avatar", "Textured avatars from images: train, evaluate, render, mesh");
+  cmd->require_subcommand(1);
+
+  // ---- train
+  auto train = std::make_shared<AvatarTrainOptions>();
+  auto quiet = std::make_shared<bool>(false);
+  auto* t = cmd->add_subcommand("train", "Learn a canonical radiance field through the Fast-SNARF deformer from an "
+                                         "image dataset (`fskin data images`); resumable, Ctrl-C saves a checkpoint");
+  t->add_option("--data", train->data_dir, "image dataset directory")->required();
+  t->add_option("--out", train->out_dir, "run directory")->required();
+  t->add_option("--steps", train->steps, "training steps")->check(CLI::NonNegativeNumber);
+  t->add_option("--rays", train->rays_per_step, "rays per step")->check(CLI::PositiveNumber);
+  t->add_option("--images-per-step", train->images_per_step, "training images the rays of a step come from")
+      ->check(CLI::PositiveNumber);
+  t->add_option("--lr", train->learning_rate, "Adam learning rate")->check(CLI::PositiveNumber);
+  t->add_option("--background", train->background, "background of the rendered rays")
+      ->check(CLI::IsMember({"dataset", "white", "black", "random"}));
+  t->add_option("--samples", train->avatar.samples_per_diagonal, "samples along the diagonal of the posed box");
+  t->add_option("--levels", train->avatar.field.encoding.levels, "hash-encoding levels");
+  t->add_option("--log2-table-size", train->avatar.field.encoding.log2_table_size, "hash-table rows per level (log2)");
+  t->add_option("--checkpoint-every", train->checkpoint_every, "steps between checkpoints")->check(CLI::PositiveNumber);
+  t->add_option("--seed", train->seed, "random seed");
+  t->add_flag("--resume", train->resume, "continue the run in --out from its newest checkpoint");
+  t->add_flag("--quiet", *quiet, "no progress bar");
+  t->callback([train, quiet] {
+    StopSignal stop;
+    AvatarTrainOptions options = *train;
+    options.progress = !*quiet;
+    options.stop = &stop;
+    const auto summary = train_avatar(options);
+    std::printf("%s: steps %lld -> %lld in %.1f s; last loss %.5f, batch PSNR %.2f dB%s\n", options.out_dir.c_str(),
+                static_cast<long long>(summary.first_step), static_cast<long long>(summary.last_step), summary.seconds,
+                summary.final_loss, summary.final_psnr, summary.stopped ? " (stopped; --resume continues)" : "");
+  });
+
+  // ---- eval
+  struct EvalOptions {
+    std::string run, data, split = "novel_view", json;
+    int64_t max_images = 0;
+    bool quiet = false;
+  };
+  auto eval = std::make_shared<EvalOptions>();
+  auto* e = cmd->add_subcommand("eval", "PSNR and SSIM of the avatar's renders against a split of its dataset");
+  e->add_option("run", eval->run, "avatar run directory")->required();
+  e->add_option("--data", eval->data, "image dataset (default: the one the run was trained on)");
+  e->add_option("--split", eval->split, "split to render")->check(CLI::IsMember({"train", "novel_view", "novel_pose"}));
+  e->add_option("--max-images", eval->max_images, "evaluate at most this many images, evenly spread (0: all)")
+      ->check(CLI::NonNegativeNumber);
+  e->add_option("--json", eval->json, "write the scores per image to this JSON file");
+  e->add_flag("--quiet", eval->quiet, "no progress bar");
+  e->callback([eval] {
+    auto trained = TrainedAvatar::load(eval->run);
+    const ImageDataset data(eval->data.empty() ? trained.options.data_dir : eval->data);
+    const auto scores = evaluate_avatar(trained.avatar, data, eval->split, eval->max_images, !eval->quiet);
+    std::printf("%s", scores.to_table().c_str());
+    const std::string json =
+        eval->json.empty() ? (fs::path(eval->run) / fmt::format("eval_{}.json", eval->split)).string() : eval->json;
+    write_file_atomically(json, scores.to_json());
+    std::printf("wrote %s\n", json.c_str());
+  });
+
+  // ---- render
+  struct RenderOptions {
+    std::string run, data, split = "novel_pose", index = "0", out;
+    bool compare = false;
+    int turntable = 0;
+  };
+  auto render = std::make_shared<RenderOptions>();
+  auto* r = cmd->add_subcommand("render", "Render the avatar in the pose and from the camera of dataset images");
+  r->add_option("run", render->run, "avatar run directory")->required();
+  r->add_option("--data", render->data, "image dataset (default: the run's)");
+  r->add_option("--split", render->split, "split of the pose and camera")
+      ->check(CLI::IsMember({"train", "novel_view", "novel_pose"}));
+  r->add_option("--index", render->index, "image index in the split, or several separated by commas (one row each)");
+  r->add_flag("--compare", render->compare, "put the ground truth to the left of each render");
+  r->add_option("--turntable", render->turntable,
+                "instead: this many frames of the first index's pose, the camera turning once about +Y, "
+                "written as PNGs into --out (a directory)")
+      ->check(CLI::Range(1, 3600));
+  r->add_option("--out", render->out, "PNG file (or directory with --turntable)")->required();
+  r->callback([render] {
+    auto trained = TrainedAvatar::load(render->run);
+    const ImageDataset data(render->data.empty() ? trained.options.data_dir : render->data);
+    const auto split = data.load_split(render->split);
+    const auto indices = parse_indices(render->index, split.size(), render->split);
+    if (render->turntable > 0) {
+      const int64_t i = indices[0];
+      const auto frame = trained.avatar->pose(split.bone_transforms[i]);
+      fs::create_directories(render->out);
+      // Turn the camera about the vertical axis through the posed box's centre.
+      const auto& g = frame.grid;
+      const Eigen::Vector3d centre(0.5 * (g.lower[0] + g.upper[0]), 0.5 * (g.lower[1] + g.upper[1]),
+                                   0.5 * (g.lower[2] + g.upper[2]));
+      for (int k = 0; k < render->turntable; ++k) {
+        const double angle = 2 * M_PI * k / render->turntable;
+        Eigen::Matrix4d turn = Eigen::Matrix4d::Identity();
+        turn(0, 0) = std::cos(angle), turn(0, 2) = std::sin(angle), turn(2, 0) = -std::sin(angle),
+        turn(2, 2) = std::cos(angle);
+        turn.topRightCorner<3, 1>() = centre - turn.topLeftCorner<3, 3>() * centre;
+        PinholeCamera camera = split.cameras[i];
+        camera.extrinsic = camera.extrinsic * turn;  // world turned by `turn`, then seen by the camera
+        const auto rgb = trained.avatar->render_image(frame, camera, data.background()).first;
+        write_png((fs::path(render->out) / fmt::format("frame_{:04d}.png", k)).string(), to_image(rgb));
+      }
+      std::printf("wrote %d frames to %s\n", render->turntable, render->out.c_str());
+      return;
+    }
+    const int W = split.cameras[0].width, H = split.cameras[0].height;
+    const int columns = render->compare ? 2 : 1;
+    Image sheet(W * columns, H * static_cast<int>(indices.size()));
+    for (size_t row = 0; row < indices.size(); ++row) {
+      const int64_t i = indices[row];
+      const auto frame = trained.avatar->pose(split.bone_transforms[i]);
+      const auto rgb = trained.avatar->render_image(frame, split.cameras[i], data.background()).first;
+      if (render->compare) sheet.paste(to_image(split.images[i].to(torch::kFloat32) / 255), 0, static_cast<int>(row) * H);
+      sheet.paste(to_image(rgb), (columns - 1) * W, static_cast<int>(row) * H);
+    }
+    write_png(render->out, sheet);
+    std::printf("wrote %s\n", render->out.c_str());
+  });
+
+  // ---- mesh
+  struct MeshOptions {
+    std::string run, data, split, out;
+    int64_t index = 0, resolution = 128;
+  };
+  auto mesh = std::make_shared<MeshOptions>();
+  auto* m = cmd->add_subcommand("mesh", "The avatar's surface (density level set) with vertex colours, canonical or "
+                                        "posed like a dataset image (PLY/OBJ)");
+  m->add_option("run", mesh->run, "avatar run directory")->required();
+  m->add_option("--resolution", mesh->resolution, "grid samples along the canonical box's longest side")
+      ->check(CLI::Range(int64_t{8}, int64_t{1024}));
+  m->add_option("--data", mesh->data, "image dataset (default: the run's), for --split");
+  m->add_option("--split", mesh->split, "pose the mesh like this split's image --index (default: canonical)")
+      ->check(CLI::IsMember({"train", "novel_view", "novel_pose"}));
+  m->add_option("--index", mesh->index, "image index in --split")->check(CLI::NonNegativeNumber);
+  m->add_option("--out", mesh->out, "mesh file (.ply keeps the colours)")->required();
+  m->callback([mesh] {
+    auto trained = TrainedAvatar::load(mesh->run);
+    torch::Tensor bones;
+    if (!mesh->split.empty()) {
+      const ImageDataset data(mesh->data.empty() ? trained.options.data_dir : mesh->data);
+      const auto split = data.load_split(mesh->split);
+      FSKIN_CHECK(mesh->index < split.size(), "--index {} is out of range: split '{}' has {} images", mesh->index,
+                  mesh->split, split.size());
+      bones = split.bone_transforms[mesh->index];
+    }
+    const Mesh surface = avatar_mesh(trained.avatar, mesh->resolution, bones);
+    io::write_mesh(mesh->out, surface);
+    std::printf("wrote %s (%lld vertices, %lld faces)\n", mesh->out.c_str(),
+                static_cast<long long>(surface.num_vertices()), static_cast<long long>(surface.num_faces()));
+  });
+}
+
+}  // namespace fskin::cli

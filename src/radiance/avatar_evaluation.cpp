@@ -1,0 +1,78 @@
+#include "fskin/radiance/avatar_evaluation.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "fskin/core/error.h"
+#include "fskin/radiance/image_metrics.h"
+#include "fskin/util/progress.h"
+
+namespace fskin {
+
+std::string AvatarEvaluation::to_json() const {
+  nlohmann::json rows = nlohmann::json::array();
+  for (const auto& f : frames)
+    rows.push_back({{"index", f.index},
+                    {"pose_index", f.pose_index},
+                    {"view_index", f.view_index},
+                    {"psnr", f.psnr},
+                    {"ssim", f.ssim},
+                    {"render_seconds", f.render_seconds}});
+  return nlohmann::json{{"split", split},
+                        {"images", frames.size()},
+                        {"mean_psnr", mean_psnr},
+                        {"mean_ssim", mean_ssim},
+                        {"median_render_seconds", median_render_seconds},
+                        {"frames", rows}}
+             .dump(2) +
+         "\n";
+}
+
+std::string AvatarEvaluation::to_table() const {
+  std::string out = fmt::format("{:<12} {:>6} {:>10} {:>8} {:>10}\n", "split", "images", "PSNR (dB)", "SSIM",
+                                "render s");
+  out += fmt::format("{:<12} {:>6} {:>10.2f} {:>8.4f} {:>10.3f}\n", split, frames.size(), mean_psnr, mean_ssim,
+                     median_render_seconds);
+  return out;
+}
+
+AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const std::string& split_name,
+                                 int64_t max_images, bool progress) {
+  FSKIN_CHECK(max_images >= 0, "avatar eval: max images must be >= 0, got {}", max_images);
+  const auto split = data.load_split(split_name);
+  FSKIN_CHECK(split.size() > 0, "{}: split '{}' has no images", data.dir(), split_name);
+  std::vector<int64_t> chosen;
+  const int64_t n = max_images > 0 ? std::min(max_images, split.size()) : split.size();
+  for (int64_t k = 0; k < n; ++k) chosen.push_back(k * split.size() / n);
+  AvatarEvaluation out;
+  out.split = split_name;
+  ProgressBar bar("avatar eval " + split_name, n, progress);
+  std::vector<double> seconds;
+  for (const int64_t i : chosen) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto frame = avatar->pose(split.bone_transforms[i]);
+    const auto rendered = avatar->render_image(frame, split.cameras[i], data.background()).first;
+    AvatarFrameScore score;
+    score.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const auto truth = split.images[i].to(torch::kFloat32) / 255;
+    score.index = i;
+    score.pose_index = split.pose_index[i].item<int64_t>();
+    score.view_index = split.view_index[i].item<int64_t>();
+    score.psnr = psnr(rendered, truth);
+    score.ssim = ssim(rendered, truth);
+    out.mean_psnr += score.psnr / static_cast<double>(n);
+    out.mean_ssim += score.ssim / static_cast<double>(n);
+    seconds.push_back(score.render_seconds);
+    out.frames.push_back(score);
+    bar.advance(1, fmt::format("PSNR {:.2f}", score.psnr));
+  }
+  bar.finish();
+  std::sort(seconds.begin(), seconds.end());
+  out.median_render_seconds = seconds[seconds.size() / 2];
+  return out;
+}
+
+}  // namespace fskin

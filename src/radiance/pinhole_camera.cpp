@@ -1,0 +1,108 @@
+#include "fskin/radiance/pinhole_camera.h"
+
+#include <Eigen/Dense>
+#include <torch/torch.h>
+
+#include <cmath>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+
+namespace fskin {
+
+PinholeCamera PinholeCamera::from_render_camera(const Camera& camera, int width, int height) {
+  FSKIN_CHECK(width > 0 && height > 0, "camera: image size must be positive, got {}x{}", width, height);
+  PinholeCamera out;
+  out.width = width;
+  out.height = height;
+  Eigen::Matrix3d rotation;
+  rotation.row(0) = camera.right.cast<double>();
+  rotation.row(1) = -camera.up.cast<double>();
+  rotation.row(2) = camera.forward.cast<double>();
+  out.extrinsic.setIdentity();
+  out.extrinsic.topLeftCorner<3, 3>() = rotation;
+  out.extrinsic.topRightCorner<3, 1>() = -rotation * camera.eye.cast<double>();
+  // The renderer puts x/z = +-tan_half_fov_x at the picture's outer edges
+  // (0 and W in its coordinates, where pixel centres sit at u + 0.5).
+  const double tan_x = camera.tan_half_fov_y * camera.aspect;
+  out.intrinsic.setIdentity();
+  out.intrinsic(0, 0) = 0.5 * width / tan_x;
+  out.intrinsic(1, 1) = 0.5 * height / camera.tan_half_fov_y;
+  out.intrinsic(0, 2) = 0.5 * (width - 1);
+  out.intrinsic(1, 2) = 0.5 * (height - 1);
+  return out;
+}
+
+Camera PinholeCamera::to_render_camera() const {
+  validate("camera");
+  const double fx = intrinsic(0, 0), fy = intrinsic(1, 1);
+  FSKIN_CHECK(std::abs(fx - fy) <= 1e-6 * fx && intrinsic(0, 1) == 0 &&
+                  std::abs(intrinsic(0, 2) - 0.5 * (width - 1)) < 1e-3 &&
+                  std::abs(intrinsic(1, 2) - 0.5 * (height - 1)) < 1e-3,
+              "camera: the mesh renderer draws square pixels around the image centre; this camera has "
+              "fx {}, fy {}, skew {}, principal point ({}, {}) for a {}x{} image",
+              fx, fy, intrinsic(0, 1), intrinsic(0, 2), intrinsic(1, 2), width, height);
+  const Eigen::Matrix3d rotation = extrinsic.topLeftCorner<3, 3>();
+  Camera camera;
+  camera.right = rotation.row(0).transpose().cast<float>();
+  camera.up = (-rotation.row(1)).transpose().cast<float>();
+  camera.forward = rotation.row(2).transpose().cast<float>();
+  camera.eye = centre().cast<float>();
+  camera.tan_half_fov_y = 0.5 * height / fy;
+  camera.aspect = static_cast<double>(width) / height;
+  return camera;
+}
+
+Eigen::Vector3d PinholeCamera::centre() const {
+  const Eigen::Matrix3d rotation = extrinsic.topLeftCorner<3, 3>();
+  return -rotation.transpose() * extrinsic.topRightCorner<3, 1>();
+}
+
+Eigen::Vector2d PinholeCamera::project(const Eigen::Vector3d& world) const {
+  const Eigen::Vector3d p = extrinsic.topLeftCorner<3, 3>() * world + extrinsic.topRightCorner<3, 1>();
+  const Eigen::Vector3d q = intrinsic * (p / p.z());
+  return {q.x(), q.y()};
+}
+
+void PinholeCamera::validate(const std::string& context) const {
+  FSKIN_CHECK(width > 0 && height > 0, "{}: image size must be positive, got {}x{}", context, width, height);
+  FSKIN_CHECK(intrinsic.allFinite() && extrinsic.allFinite(), "{}: camera matrices are not finite", context);
+  FSKIN_CHECK(intrinsic(1, 0) == 0 && intrinsic(2, 0) == 0 && intrinsic(2, 1) == 0 && intrinsic(2, 2) == 1,
+              "{}: intrinsic must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]]", context);
+  FSKIN_CHECK(intrinsic(0, 0) > 0 && intrinsic(1, 1) > 0, "{}: focal lengths must be positive, got {} and {}",
+              context, intrinsic(0, 0), intrinsic(1, 1));
+  FSKIN_CHECK(extrinsic.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)),
+              "{}: extrinsic's last row must be [0, 0, 0, 1]", context);
+  const Eigen::Matrix3d rotation = extrinsic.topLeftCorner<3, 3>();
+  FSKIN_CHECK((rotation * rotation.transpose()).isApprox(Eigen::Matrix3d::Identity(), 1e-4) &&
+                  std::abs(rotation.determinant() - 1) < 1e-4,
+              "{}: extrinsic's rotation is not a rotation (R R^T != I or det != 1): a world->camera "
+              "transform without scale is expected",
+              context);
+}
+
+std::pair<torch::Tensor, torch::Tensor> camera_rays(const PinholeCamera& camera, const torch::Tensor& pixels) {
+  expect_shape(pixels, {-1, 2}, "camera_rays: pixels");
+  const auto uv = pixels.to(torch::kFloat64);
+  const auto& K = camera.intrinsic;
+  const auto y = (uv.select(1, 1) - K(1, 2)) / K(1, 1);
+  const auto x = (uv.select(1, 0) - K(0, 2) - K(0, 1) * y) / K(0, 0);
+  const auto local = torch::stack({x, y, torch::ones_like(x)}, 1);  // camera space
+  Eigen::Matrix<double, 3, 3, Eigen::RowMajor> rotation = camera.extrinsic.topLeftCorner<3, 3>();
+  const auto R = torch::from_blob(rotation.data(), {3, 3}, torch::kFloat64).clone();
+  // world = R^T camera: rows of `local` times R.
+  auto directions = local.matmul(R);
+  directions = directions / directions.norm(2, 1, true);
+  const Eigen::Vector3d eye = camera.centre();
+  const auto origins = torch::tensor({eye.x(), eye.y(), eye.z()}, torch::kFloat64).expand({uv.size(0), 3});
+  return {origins.to(torch::kFloat32).contiguous(), directions.to(torch::kFloat32).contiguous()};
+}
+
+torch::Tensor pixel_centres(int width, int height) {
+  FSKIN_CHECK(width > 0 && height > 0, "pixel_centres: size must be positive, got {}x{}", width, height);
+  const auto u = torch::arange(width, torch::kFloat32), v = torch::arange(height, torch::kFloat32);
+  const auto grids = torch::meshgrid({v, u}, "ij");
+  return torch::stack({grids[1].reshape(-1), grids[0].reshape(-1)}, 1).contiguous();
+}
+
+}  // namespace fskin

@@ -1,0 +1,57 @@
+#include "fskin/radiance/radiance_field.h"
+
+#include <algorithm>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+
+namespace fskin {
+
+void RadianceFieldOptions::validate() const {
+  encoding.validate();
+  FSKIN_CHECK(hidden_dim >= 1 && hidden_dim <= 4096, "radiance field: hidden_dim must be within 1..4096, got {}",
+              hidden_dim);
+  FSKIN_CHECK(hidden_layers >= 1 && hidden_layers <= 16, "radiance field: hidden_layers must be within 1..16, got {}",
+              hidden_layers);
+}
+
+RadianceFieldImpl::RadianceFieldImpl(RadianceFieldOptions options, std::array<double, 3> lower,
+                                     std::array<double, 3> upper)
+    : options_(std::move(options)), lower_(lower), upper_(upper) {
+  options_.validate();
+  extent_ = 0;
+  for (int c = 0; c < 3; ++c) {
+    FSKIN_CHECK(std::isfinite(lower[c]) && std::isfinite(upper[c]) && upper[c] > lower[c],
+                "radiance field: the canonical box must be finite and non-empty along every axis");
+    extent_ = std::max(extent_, upper[c] - lower[c]);
+  }
+  table_ = register_parameter("table", hash_encoding_table(options_.encoding));
+  mlp_ = torch::nn::Sequential();
+  int64_t width = options_.encoding.output_dim();
+  for (int64_t l = 0; l < options_.hidden_layers; ++l) {
+    mlp_->push_back(torch::nn::Linear(width, options_.hidden_dim));
+    mlp_->push_back(torch::nn::ReLU());
+    width = options_.hidden_dim;
+  }
+  mlp_->push_back(torch::nn::Linear(width, 4));
+  register_module("mlp", mlp_);
+}
+
+RadianceSample RadianceFieldImpl::forward(const torch::Tensor& x) {
+  expect_shape(x, {-1, 3}, "radiance field: points");
+  const auto lower = torch::tensor({lower_[0], lower_[1], lower_[2]}, x.options());
+  const auto upper = torch::tensor({upper_[0], upper_[1], upper_[2]}, x.options());
+  // Normalised by the longest side: the box's lower corner at 0, cubic cells.
+  const auto unit = (x - lower) / extent_;
+  const auto inside = ((x >= lower) & (x <= upper)).all(1);
+  const auto features = hash_encoding(unit.to(table_.scalar_type()), table_, options_.encoding);
+  const auto raw = mlp_->forward(features);
+  // Density per unit length relative to the box: exp keeps it positive with a
+  // useful gradient at any scale; sigma * step is then the same for a
+  // character of any size. Clamped so that exp cannot overflow.
+  const auto sigma = torch::exp(raw.select(1, 0).clamp(-15, 15)) / extent_ * inside.to(raw.scalar_type());
+  const auto rgb = torch::sigmoid(raw.slice(1, 1, 4));
+  return {sigma, rgb};
+}
+
+}  // namespace fskin

@@ -1,0 +1,101 @@
+// `fskin data images` and `fskin avatar train | eval | render | mesh`, run as a
+// user would on a tiny image dataset of the built-in character.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include "fskin/export/image.h"
+#include "fskin/util/atomic_file.h"
+#include "test_util.h"
+
+namespace fskin {
+namespace {
+
+namespace fs = std::filesystem;
+
+class AvatarCommands : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(testing::temp_dir("cli_avatar"));
+    setup_error_ = new std::string;
+    const std::vector<std::string> steps = {
+        "character --resolution 40 --out " + path("model.npz"),
+        "poses train --model " + path("model.npz") + " --out " + path("poses.npz") + " --sequences 1 --frames 2",
+        "poses ood --model " + path("model.npz") + " --out " + path("held_out.npz") + " --count 1",
+        "data images --model " + path("model.npz") + " --poses " + path("poses.npz") + " --held-out-poses " +
+            path("held_out.npz") + " --out " + path("images") +
+            " --size 32 --views 2 --held-out-views 1 --novel-view-frames 1 --supersampling 1 --quiet",
+        "avatar train --data " + path("images") + " --out " + path("run") +
+            " --steps 20 --rays 256 --levels 4 --log2-table-size 12 --quiet",
+    };
+    for (const auto& step : steps) {
+      if (run_cli(step) != 0) {
+        *setup_error_ = step + "\n" + log();
+        return;
+      }
+    }
+  }
+  static void TearDownTestSuite() {
+    if (dir_) fs::remove_all(*dir_);
+    delete dir_;
+    dir_ = nullptr;
+    delete setup_error_;
+    setup_error_ = nullptr;
+  }
+  void SetUp() override {
+    ASSERT_TRUE(setup_error_ && setup_error_->empty()) << "fixture setup failed: " << *setup_error_;
+  }
+  static std::string path(const std::string& name) { return (*dir_ / name).string(); }
+  static int run_cli(const std::string& arguments) {
+    return std::system((std::string(FSKIN_CLI_PATH) + " " + arguments + " > " + path("log.txt") + " 2>&1").c_str());
+  }
+  static std::string log() { return read_file(path("log.txt")); }
+  static fs::path* dir_;
+  static std::string* setup_error_;
+};
+fs::path* AvatarCommands::dir_ = nullptr;
+std::string* AvatarCommands::setup_error_ = nullptr;
+
+TEST_F(AvatarCommands, EvalWritesPsnrPerSplit) {
+  ASSERT_EQ(run_cli("avatar eval " + path("run") + " --split novel_pose --quiet"), 0) << log();
+  EXPECT_NE(log().find("PSNR"), std::string::npos) << log();
+  const auto json = nlohmann::json::parse(read_file(path("run/eval_novel_pose.json")));
+  EXPECT_EQ(json.at("split"), "novel_pose");
+  EXPECT_EQ(json.at("images"), 1);
+  EXPECT_GT(json.at("mean_psnr").get<double>(), 5.0);
+}
+
+TEST_F(AvatarCommands, RenderComparesWithTheGroundTruth) {
+  ASSERT_EQ(run_cli("avatar render " + path("run") + " --split train --index 0,3 --compare --out " + path("cmp.png")),
+            0)
+      << log();
+  const Image sheet = read_png(path("cmp.png"));
+  EXPECT_EQ(sheet.width, 64);
+  EXPECT_EQ(sheet.height, 64);
+  ASSERT_EQ(run_cli("avatar render " + path("run") + " --turntable 3 --out " + path("turn")), 0) << log();
+  EXPECT_TRUE(fs::exists(path("turn/frame_0002.png")));
+  ASSERT_NE(run_cli("avatar render " + path("run") + " --split train --index 9 --out " + path("x.png")), 0);
+  EXPECT_NE(log().find("--index 9 is out of range"), std::string::npos) << log();
+}
+
+TEST_F(AvatarCommands, TrainingAgainNeedsResume) {
+  ASSERT_NE(run_cli("avatar train --data " + path("images") + " --out " + path("run") + " --steps 30 --quiet"), 0);
+  EXPECT_NE(log().find("--resume"), std::string::npos) << log();
+  ASSERT_EQ(run_cli("avatar train --data " + path("images") + " --out " + path("run") + " --steps 25 --resume --quiet"),
+            0)
+      << log();
+  EXPECT_NE(log().find("steps 20 -> 25"), std::string::npos) << log();
+}
+
+TEST_F(AvatarCommands, BadInputsAreNamed) {
+  ASSERT_NE(run_cli("avatar train --data " + path("nothing") + " --out " + path("run2") + " --quiet"), 0);
+  EXPECT_NE(log().find("manifest.json"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar eval " + path("images")), 0);
+  EXPECT_NE(log().find("avatar.json"), std::string::npos) << log();
+}
+
+}  // namespace
+}  // namespace fskin

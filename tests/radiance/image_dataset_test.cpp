@@ -1,0 +1,135 @@
+#include "fskin/radiance/image_dataset.h"
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <filesystem>
+
+#include "fskin/io/npz.h"
+#include "fskin/radiance/surface_texture.h"
+#include "fskin/skeleton/lbs.h"
+#include "fskin/util/atomic_file.h"
+#include "test_util.h"
+#include "tiny_image_dataset.h"
+
+namespace fskin {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(ImageDataset, HasTheSplitsOfTheLayout) {
+  const auto& tiny = testing::tiny_image_dataset();
+  const ImageDataset data(tiny.dir);
+  EXPECT_EQ(data.split_names(), image_split_names());
+  const auto train = data.load_split("train");
+  EXPECT_EQ(train.size(), 3 * 2);
+  EXPECT_EQ(train.images.sizes(), (std::vector<int64_t>{6, 40, 40, 3}));
+  EXPECT_EQ(data.load_split("novel_view").size(), 2);
+  const auto novel_pose = data.load_split("novel_pose");
+  EXPECT_EQ(novel_pose.size(), 2);
+  // Held-out views are not training views.
+  EXPECT_GE(novel_pose.view_index.min().item<int64_t>(), 2);
+  EXPECT_LE(train.view_index.max().item<int64_t>(), 1);
+  // PeopleSnapshot's files.
+  for (const char* file : {"train/cameras.npz", "train/poses.npz", "train/images/image_0000.png",
+                           "train/masks/mask_0005.png", "canonical.npz", "manifest.json"})
+    EXPECT_TRUE(fs::exists(fs::path(tiny.dir) / file)) << file;
+  const io::NpzReader cameras((fs::path(tiny.dir) / "train" / "cameras.npz").string());
+  EXPECT_EQ(cameras.tensor("intrinsic").sizes(), (std::vector<int64_t>{6, 3, 3}));
+  EXPECT_EQ(cameras.tensor("extrinsic").sizes(), (std::vector<int64_t>{6, 4, 4}));
+  EXPECT_EQ(cameras.tensor("height").item<int64_t>(), 40);
+}
+
+TEST(ImageDataset, MasksCoverTheProjectedPosedSurface) {
+  const auto& tiny = testing::tiny_image_dataset();
+  const ImageDataset data(tiny.dir);
+  const auto split = data.load_split("novel_pose");
+  const auto& character = data.character();
+  for (int64_t i = 0; i < split.size(); ++i) {
+    // The posed vertices by LBS with the stored bones: each projects onto a covered pixel.
+    const auto posed = linear_blend_skinning(character.vertices.unsqueeze(0), character.weights,
+                                             split.bone_transforms[i].unsqueeze(0))[0];
+    int64_t inside = 0, total = 0;
+    for (int64_t v = 0; v < posed.size(0); v += 7) {
+      const Eigen::Vector3d p(posed[v][0].item<double>(), posed[v][1].item<double>(), posed[v][2].item<double>());
+      const Eigen::Vector2d uv = split.cameras[i].project(p);
+      const auto u = static_cast<int64_t>(std::lround(uv.x())), w = static_cast<int64_t>(std::lround(uv.y()));
+      ASSERT_TRUE(u >= 0 && u < 40 && w >= 0 && w < 40) << "vertex " << v << " projects outside the image";
+      // Silhouette vertices may round onto the uncovered neighbour of a pixel.
+      const auto near = split.masks[i].slice(0, std::max<int64_t>(w - 1, 0), w + 2).slice(1, std::max<int64_t>(u - 1, 0), u + 2);
+      inside += near.max().item<uint8_t>() > 0;
+      ++total;
+    }
+    EXPECT_GT(static_cast<double>(inside) / total, 0.995) << "image " << i;
+    // Background pixels are the dataset's background (white), subject pixels are not all white.
+    const auto background = split.masks[i] == 0;
+    EXPECT_TRUE(split.images[i].index({background}).eq(255).all().item<bool>());
+    EXPECT_LT(split.images[i].index({split.masks[i] == 255}).to(torch::kFloat32).mean().item<float>(), 230);
+  }
+}
+
+TEST(ImageDataset, RebuildingSkipsFinishedImagesAndRefusesOtherParameters) {
+  const auto& tiny = testing::tiny_image_dataset();
+  const auto again = build_image_dataset(tiny.model, tiny.poses, tiny.held_out, tiny.options);
+  EXPECT_EQ(again.images_written, 0);
+  EXPECT_EQ(again.images_skipped, 10);
+  auto other = tiny.options;
+  other.width = 48;
+  testing::expect_error([&] { build_image_dataset(tiny.model, tiny.poses, tiny.held_out, other); },
+                        {tiny.dir, "different"});
+}
+
+TEST(ImageDataset, BadFilesAreNamed) {
+  const auto& tiny = testing::tiny_image_dataset();
+  const auto dir = testing::temp_dir("image_dataset_bad");
+  fs::copy(tiny.dir, dir, fs::copy_options::recursive);
+  // A camera that is no rotation.
+  {
+    const io::NpzReader cameras((dir / "train" / "cameras.npz").string());
+    io::NpzWriter writer;
+    auto extrinsic = cameras.tensor("extrinsic").clone();
+    extrinsic[2] = extrinsic[2] * 3;
+    extrinsic[2][3][3] = 1;
+    writer.add("intrinsic", cameras.tensor("intrinsic"));
+    writer.add("extrinsic", extrinsic);
+    writer.add("height", cameras.tensor("height"));
+    writer.add("width", cameras.tensor("width"));
+    writer.save((dir / "train" / "cameras.npz").string());
+  }
+  const ImageDataset data(dir.string());
+  testing::expect_error([&] { data.load_split("train"); }, {"cameras.npz: camera 2", "rotation"});
+  // A missing image.
+  fs::remove(dir / "novel_view" / "images" / "image_0001.png");
+  testing::expect_error([&] { data.load_split("novel_view"); }, {"image_0001.png", "missing"});
+  // A mask of another size.
+  write_file_atomically((dir / "novel_pose" / "masks" / "mask_0000.png").string(),
+                        read_file((dir / "novel_pose" / "images" / "image_0000.png").string()).substr(0, 40));
+  testing::expect_error([&] { data.load_split("novel_pose"); }, {"mask_0000.png"});
+  testing::expect_error([&] { data.load_split("test"); }, {"no split 'test'"});
+  testing::expect_error([&] { ImageDataset((dir / "nothing").string()); }, {"manifest.json", "missing"});
+}
+
+TEST(SurfaceTexture, GivesEveryRigDetailAndTheSmplCharacterAFace) {
+  const auto& tiny = testing::tiny_image_dataset();
+  const ImageDataset data(tiny.dir);
+  const auto& c = data.character();
+  const SurfaceTexture texture(c.vertices, c.weights, c.joint_names);
+  const auto colours = texture.vertex_colors(c.vertices, c.weights).to(torch::kFloat32);
+  // Many distinct colours (parts, patterns, seams, face), none outside [0, 255].
+  EXPECT_GT(std::get<0>(torch::_unique(colours.select(1, 0) * 65536 + colours.select(1, 1) * 256 + colours.select(1, 2))).numel(), 20);
+  // The same texture from the same input.
+  EXPECT_TRUE(torch::equal(texture.vertex_colors(c.vertices, c.weights), texture.vertex_colors(c.vertices, c.weights)));
+  // Any other rig (names that are not SMPL's): colours per bone with patterns, no face.
+  std::vector<std::string> names;
+  for (int64_t j = 0; j < c.num_joints(); ++j) names.push_back("bone." + std::to_string(j));
+  const SurfaceTexture generic(c.vertices * 30, c.weights, names);  // 51 m tall
+  const auto generic_colours = generic.vertex_colors(c.vertices * 30, c.weights).to(torch::kFloat32);
+  EXPECT_GT(std::get<0>(torch::_unique(generic_colours.select(1, 0) * 65536 + generic_colours.select(1, 1) * 256 +
+                                       generic_colours.select(1, 2)))
+                .numel(),
+            10);
+  testing::expect_error([&] { SurfaceTexture(c.vertices, c.weights, {"a", "b"}); }, {"joint names"});
+}
+
+}  // namespace
+}  // namespace fskin

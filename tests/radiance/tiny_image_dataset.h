@@ -1,0 +1,51 @@
+#pragma once
+// A small image dataset of the built-in character shared by the radiance
+// tests: 3 training poses x 2 views, 2 novel-view and 2 novel-pose images at
+// 40 x 40 pixels, built once per test process.
+#include <torch/torch.h>
+
+#include <filesystem>
+#include <string>
+
+#include "fskin/body/character.h"
+#include "fskin/data/pose_generators.h"
+#include "fskin/radiance/image_dataset.h"
+#include "test_util.h"
+
+namespace fskin::testing {
+
+struct TinyImageDataset {
+  BodyModel model;
+  PoseSet poses, held_out;
+  ImageDatasetOptions options;
+  std::string dir;
+};
+
+inline ImageDatasetOptions tiny_image_options(const std::string& dir) {
+  ImageDatasetOptions options;
+  options.out_dir = dir;
+  options.width = options.height = 40;
+  options.supersampling = 2;
+  options.training_views = 2;
+  options.held_out_views = 2;
+  options.novel_view_frames = 2;
+  options.progress = false;
+  return options;
+}
+
+inline const TinyImageDataset& tiny_image_dataset() {
+  static const TinyImageDataset* data = [] {
+    CharacterOptions character;
+    character.resolution = 40;
+    auto* d = new TinyImageDataset{make_character_model(character), {}, {}, {}, {}};
+    d->poses = make_training_poses(d->model.data().joint_names, TrainingPoseOptions{1, 3, 0});
+    d->held_out = make_ood_poses(d->model.data().joint_names, OodPoseOptions{2, 1});
+    d->dir = temp_dir("tiny_image_dataset").string();
+    d->options = tiny_image_options(d->dir);
+    build_image_dataset(d->model, d->poses, d->held_out, d->options);
+    return d;
+  }();
+  return *data;
+}
+
+}  // namespace fskin::testing
