@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fskin/body/smpl_skeleton.h"
+#include "fskin/data/build_manifest.h"
 #include "fskin/core/error.h"
 #include "fskin/data/dataset_frame.h"
 #include "fskin/data/inside_test.h"
@@ -158,28 +159,7 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
   };
 
   const fs::path dir(options.out_dir);
-  const fs::path manifest_path = dir / "manifest.json";
-  if (fs::exists(manifest_path)) {
-    nlohmann::json previous;
-    try {
-      previous = nlohmann::json::parse(read_file(manifest_path.string()));
-    } catch (const nlohmann::json::exception& e) {
-      fail("{}: not a valid manifest ({}); remove it or use another --out", manifest_path.string(),
-           e.what());
-    }
-    previous.erase("complete");
-    FSKIN_CHECK(previous == manifest,
-                "{} was built with different inputs or parameters; use another --out directory "
-                "or remove the old dataset",
-                options.out_dir);
-  }
-  const auto write_manifest = [&](bool complete) {
-    auto copy = manifest;
-    copy["complete"] = complete;
-    write_file_atomically(manifest_path.string(), copy.dump(2) + "\n");
-  };
-  remove_stale_temporaries(dir.string());
-  write_manifest(false);
+  const BuildManifest build_manifest(options.out_dir, manifest);
 
   const fs::path canonical_path = dir / "canonical.npz";
   if (!fs::exists(canonical_path)) {
@@ -243,7 +223,7 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
     progress.advance(1, item.file);
   }
   progress.finish();
-  write_manifest(true);
+  build_manifest.mark_complete();
   summary.train = static_cast<int64_t>(splits["train"].size());
   summary.val = static_cast<int64_t>(splits["val"].size());
   summary.test_within = static_cast<int64_t>(splits["test_within"].size());

@@ -107,6 +107,15 @@ PosedFrame AvatarImpl::pose(const torch::Tensor& bones) {
   const int64_t R = grid.resolution();
   grid.occupied = torch::cat(hits).reshape({R, R, R});
   frame.grid = grid.dilated();
+  const auto cells = frame.grid.occupied.nonzero();  // [K, 3] (z, y, x)
+  if (cells.size(0) > 0) {
+    const auto first = std::get<0>(cells.min(0)), last = std::get<0>(cells.max(0));
+    for (int c = 0; c < 3; ++c) {
+      const double size = (box[1][c] - box[0][c]) / static_cast<double>(R);
+      frame.lower[c] = box[0][c] + size * static_cast<double>(first[2 - c].item<int64_t>());
+      frame.upper[c] = box[0][c] + size * static_cast<double>(last[2 - c].item<int64_t>() + 1);
+    }
+  }
   double diagonal = 0;
   for (int c = 0; c < 3; ++c) diagonal += (box[1][c] - box[0][c]) * (box[1][c] - box[0][c]);
   frame.step = std::sqrt(diagonal) / static_cast<double>(options_.samples_per_diagonal);
@@ -121,9 +130,9 @@ RayRender AvatarImpl::render_rays(const PosedFrame& frame, const torch::Tensor& 
   expect_shape(background, {R, 3}, "avatar: ray backgrounds");
   const auto o = origins.to(torch::kFloat32).cpu(), d = directions.to(torch::kFloat32).cpu();
   const auto& g = frame.grid;
-  // Slab intersection with the posed box.
-  const auto lo = torch::tensor({g.lower[0], g.lower[1], g.lower[2]}, torch::kFloat32);
-  const auto hi = torch::tensor({g.upper[0], g.upper[1], g.upper[2]}, torch::kFloat32);
+  // Slab intersection with the box of the occupied cells.
+  const auto lo = torch::tensor({frame.lower[0], frame.lower[1], frame.lower[2]}, torch::kFloat32);
+  const auto hi = torch::tensor({frame.upper[0], frame.upper[1], frame.upper[2]}, torch::kFloat32);
   const auto inverse = 1.0 / torch::where(d.abs() < 1e-12, torch::full_like(d, 1e-12), d);
   const auto ta = (lo - o) * inverse, tb = (hi - o) * inverse;
   const auto t_near = std::get<0>(torch::minimum(ta, tb).max(1)).clamp_min(0);

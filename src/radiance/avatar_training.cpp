@@ -13,6 +13,7 @@
 
 #include "fskin/core/error.h"
 #include "fskin/training/checkpoint.h"
+#include "fskin/training/trainer.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/util/progress.h"
 #include "fskin/version.h"
@@ -48,6 +49,8 @@ nlohmann::json options_json(const AvatarTrainOptions& o) {
       {"images_per_step", o.images_per_step},
       {"mask_box_fraction", o.mask_box_fraction},
       {"learning_rate", o.learning_rate},
+      {"decay_fraction", o.decay_fraction},
+      {"decay_factor", o.decay_factor},
       {"huber_delta", o.huber_delta},
       {"opacity_weight", o.opacity_weight},
       {"background", o.background},
@@ -85,6 +88,8 @@ AvatarTrainOptions options_from_json(const nlohmann::json& j, const std::string&
     o.images_per_step = j.at("images_per_step");
     o.mask_box_fraction = j.at("mask_box_fraction");
     o.learning_rate = j.at("learning_rate");
+    o.decay_fraction = j.at("decay_fraction");
+    o.decay_factor = j.at("decay_factor");
     o.huber_delta = j.at("huber_delta");
     o.opacity_weight = j.at("opacity_weight");
     o.background = j.at("background");
@@ -159,6 +164,8 @@ void AvatarTrainOptions::validate() const {
               "avatar train: images per step must be within 1..rays per step, got {}", images_per_step);
   FSKIN_CHECK(mask_box_fraction >= 0 && mask_box_fraction <= 1,
               "avatar train: mask box fraction must be within [0, 1], got {}", mask_box_fraction);
+  FSKIN_CHECK(decay_fraction >= 0 && decay_fraction <= 1 && decay_factor > 0 && decay_factor <= 1,
+              "avatar train: decay fraction must be within [0, 1] and decay factor within (0, 1]");
   FSKIN_CHECK(learning_rate > 0 && huber_delta > 0 && opacity_weight >= 0,
               "avatar train: learning rate and Huber delta must be > 0 and the opacity weight >= 0");
   FSKIN_CHECK(background == "dataset" || background == "white" || background == "black" || background == "random",
@@ -281,6 +288,9 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
     adam.zero_grad();
     if (loss.requires_grad()) {
       loss.backward();
+      const double rate =
+          options.learning_rate * cosine_decay_scale(step, options.steps, options.decay_fraction, options.decay_factor);
+      for (auto& group : adam.param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(rate);
       adam.step();
     }
     ++step;

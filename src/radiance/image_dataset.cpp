@@ -12,6 +12,7 @@
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
+#include "fskin/data/build_manifest.h"
 #include "fskin/data/dataset_builder.h"
 #include "fskin/export/image.h"
 #include "fskin/export/render.h"
@@ -251,22 +252,7 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
       {"splits", image_split_names()},
   };
   const fs::path dir(options.out_dir);
-  fs::create_directories(dir);
-  const fs::path manifest_path = dir / "manifest.json";
-  if (fs::exists(manifest_path)) {
-    auto previous = read_json(manifest_path.string());
-    previous.erase("complete");
-    FSKIN_CHECK(previous == manifest,
-                "{} was built with different inputs or parameters; use another --out directory or remove it",
-                options.out_dir);
-  }
-  const auto write_manifest = [&](bool complete) {
-    auto copy = manifest;
-    copy["complete"] = complete;
-    write_file_atomically(manifest_path.string(), copy.dump(2) + "\n");
-  };
-  remove_stale_temporaries(dir.string());
-  write_manifest(false);
+  const BuildManifest build_manifest(options.out_dir, manifest);
   character.save((dir / "canonical.npz").string());
 
   ImageDatasetSummary summary;
@@ -346,7 +332,7 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
     summary.novel_view += split == "novel_view" ? static_cast<int64_t>(items.size()) : 0;
     summary.novel_pose += split == "novel_pose" ? static_cast<int64_t>(items.size()) : 0;
   }
-  write_manifest(true);
+  build_manifest.mark_complete();
   return summary;
 }
 

@@ -37,11 +37,15 @@ double learning_rate_scale(const TrainConfig& config, int64_t step) {
     const double t = static_cast<double>(step) / static_cast<double>(config.warmup_steps);
     return config.warmup_factor + (1.0 - config.warmup_factor) * t;
   }
-  const double decay_steps = config.decay_fraction * static_cast<double>(config.steps);
-  const double decay_start = static_cast<double>(config.steps) - decay_steps;
+  return cosine_decay_scale(step, config.steps, config.decay_fraction, config.decay_factor);
+}
+
+double cosine_decay_scale(int64_t step, int64_t steps, double decay_fraction, double decay_factor) {
+  const double decay_steps = decay_fraction * static_cast<double>(steps);
+  const double decay_start = static_cast<double>(steps) - decay_steps;
   if (decay_steps <= 0 || static_cast<double>(step) <= decay_start) return 1.0;
   const double t = std::min(1.0, (static_cast<double>(step) - decay_start) / decay_steps);
-  return config.decay_factor + (1.0 - config.decay_factor) * 0.5 * (1.0 + std::cos(M_PI * t));
+  return decay_factor + (1.0 - decay_factor) * 0.5 * (1.0 + std::cos(M_PI * t));
 }
 
 namespace {

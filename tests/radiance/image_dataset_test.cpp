@@ -109,6 +109,34 @@ TEST(ImageDataset, BadFilesAreNamed) {
   testing::expect_error([&] { ImageDataset((dir / "nothing").string()); }, {"manifest.json", "missing"});
 }
 
+TEST(ImageDataset, MonocularHasOneCameraAndATurningSubject) {
+  const auto& tiny = testing::tiny_image_dataset();
+  const auto dir = testing::temp_dir("image_dataset_monocular");
+  auto options = testing::tiny_image_options(dir.string());
+  options.monocular = true;
+  options.width = options.height = 24;
+  const auto poses = tiny.poses.slice(0, 1).poses.expand({4, -1, -1}).contiguous();
+  const PoseSet same_pose{poses, torch::zeros({4, 3}), tiny.poses.joint_names};
+  build_image_dataset(tiny.model, same_pose, PoseSet{}, options);
+  const io::NpzReader cameras((dir / "train" / "cameras.npz").string());
+  EXPECT_EQ(cameras.tensor("intrinsic").sizes(), (std::vector<int64_t>{3, 3}));  // PeopleSnapshot's one camera
+  const ImageDataset data(dir.string());
+  const auto train = data.load_split("train");
+  ASSERT_EQ(train.size(), 4);
+  EXPECT_EQ(data.load_split("novel_pose").size(), 0);
+  // The same pose turned by 0, 90, 180, 270 degrees about +Y: the root's rotations differ by those.
+  for (int64_t i = 1; i < 4; ++i) {
+    const auto relative = train.bone_transforms[i][0].slice(0, 0, 3).slice(1, 0, 3).matmul(
+        train.bone_transforms[0][0].slice(0, 0, 3).slice(1, 0, 3).transpose(0, 1));
+    const double angle = std::atan2(relative[0][2].item<double>(), relative[0][0].item<double>());
+    const double expected = std::remainder(M_PI / 2 * static_cast<double>(i), 2 * M_PI);
+    EXPECT_NEAR(std::remainder(angle - expected, 2 * M_PI), 0.0, 1e-4) << i;
+    EXPECT_NEAR(relative[1][1].item<double>(), 1.0, 1e-5);
+  }
+  // Different pictures of one pose.
+  EXPECT_FALSE(torch::equal(train.images[0], train.images[1]));
+}
+
 TEST(SurfaceTexture, GivesEveryRigDetailAndTheSmplCharacterAFace) {
   const auto& tiny = testing::tiny_image_dataset();
   const ImageDataset data(tiny.dir);

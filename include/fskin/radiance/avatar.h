@@ -38,6 +38,9 @@ struct AvatarOptions {
 struct PosedFrame {
   torch::Tensor bones;  // [J, 4, 4] canonical -> posed
   OccupancyGrid grid;   // posed space
+  // The box of the grid's occupied cells: rays are clipped to it (empty:
+  // lower == upper, no ray takes samples).
+  std::array<double, 3> lower{0, 0, 0}, upper{0, 0, 0};
   double step = 0;      // distance between samples along a ray
 };
 

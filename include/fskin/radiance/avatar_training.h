@@ -25,6 +25,9 @@ struct AvatarTrainOptions {
   // the rest anywhere in the image.
   double mask_box_fraction = 0.9;
   double learning_rate = 1e-2;  // Adam, hash table and MLP
+  // Cosine decay of the learning rate to decay_factor x over the last
+  // decay_fraction of the steps (training/trainer.h, cosine_decay_scale).
+  double decay_fraction = 0.5, decay_factor = 0.05;
   double huber_delta = 0.1;     // eq. 20
   double opacity_weight = 0.1;  // eq. 21
   // Background of the rendered rays: "dataset" (the images' own), "white",
@@ -32,7 +35,7 @@ struct AvatarTrainOptions {
   // with the mask).
   std::string background = "random";
   int64_t occupancy_every = 100;   // steps between canonical occupancy updates
-  int64_t occupancy_warmup = 200;  // all cells occupied until this step
+  int64_t occupancy_warmup = 100;  // all cells occupied until this step
   int64_t checkpoint_every = 500;
   int64_t log_every = 50;
   uint64_t seed = 0;

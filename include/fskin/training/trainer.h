@@ -48,6 +48,9 @@ uint64_t step_seed(uint64_t seed, int64_t step);
 
 // The learning-rate multiplier of step `step`: linear warm-up, 1, then a
 // cosine decay over the last decay_fraction of config.steps.
+// The cosine decay of learning_rate_scale alone: 1 until the last
+// decay_fraction of `steps`, then down to decay_factor at the last step.
+double cosine_decay_scale(int64_t step, int64_t steps, double decay_fraction, double decay_factor);
 double learning_rate_scale(const TrainConfig& config, int64_t step);
 
 TrainResult train(const TrainConfig& config, const BatchSource& source, const TrainOptions& options);
