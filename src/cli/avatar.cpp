@@ -12,6 +12,7 @@
 
 #include "cli/commands.h"
 #include "fskin/core/error.h"
+#include "fskin/data/pose_set.h"
 #include "fskin/export/image.h"
 #include "fskin/io/mesh_io.h"
 #include "fskin/radiance/avatar_evaluation.h"
@@ -119,7 +120,8 @@ void register_avatar(CLI::App& app) {
 
   // ---- render
   struct RenderOptions {
-    std::string run, data, split = "novel_pose", index = "0", out;
+    std::string run, data, split = "novel_pose", index = "0", out, poses, model, cameras;
+    int64_t pose_index = 0, camera_index = 0;
     bool compare = false;
     int turntable = 0;
   };
@@ -135,15 +137,42 @@ void register_avatar(CLI::App& app) {
                 "instead: this many frames of the first index's pose, the camera turning once about +Y, "
                 "written as PNGs into --out (a directory)")
       ->check(CLI::Range(1, 3600));
+  r->add_option("--poses", render->poses,
+                "instead of the split's pose: a pose file (.npz) posed with the dataset's body model")
+      ->check(CLI::ExistingFile);
+  r->add_option("--pose-index", render->pose_index, "pose of --poses")->check(CLI::NonNegativeNumber);
+  r->add_option("--model", render->model, "body model for --poses (default: the one the dataset's manifest records)");
+  r->add_option("--cameras", render->cameras, "instead of the split's camera: a cameras.npz (OpenCV convention)")
+      ->check(CLI::ExistingFile);
+  r->add_option("--camera-index", render->camera_index, "camera of --cameras")->check(CLI::NonNegativeNumber);
   r->add_option("--out", render->out, "PNG file (or directory with --turntable)")->required();
   r->callback([render] {
     auto trained = TrainedAvatar::load(render->run);
     const ImageDataset data(render->data.empty() ? trained.options.data_dir : render->data);
     const auto split = data.load_split(render->split);
     const auto indices = parse_indices(render->index, split.size(), render->split);
+    auto bones = split.bone_transforms;
+    auto cameras = split.cameras;
+    if (!render->poses.empty()) {
+      FSKIN_CHECK(!render->compare, "--compare needs the split's own poses (there is no ground truth for --poses)");
+      const auto poses = PoseSet::load(render->poses);
+      FSKIN_CHECK(render->pose_index < poses.size(), "--pose-index {} is out of range: {} has {} poses",
+                  render->pose_index, render->poses, poses.size());
+      const auto posed = data.bone_transforms(poses.slice(render->pose_index, render->pose_index + 1), render->poses,
+                                              render->model)[0];
+      for (const int64_t i : indices) bones[i] = posed;
+    }
+    if (!render->cameras.empty()) {
+      FSKIN_CHECK(!render->compare, "--compare needs the split's own cameras (there is no ground truth for --cameras)");
+      const auto given = load_cameras(render->cameras, -1);
+      FSKIN_CHECK(render->camera_index < static_cast<int64_t>(given.size()),
+                  "--camera-index {} is out of range: {} has {} cameras", render->camera_index, render->cameras,
+                  given.size());
+      for (const int64_t i : indices) cameras[i] = given[render->camera_index];
+    }
     if (render->turntable > 0) {
       const int64_t i = indices[0];
-      const auto frame = trained.avatar->pose(split.bone_transforms[i]);
+      const auto frame = trained.avatar->pose(bones[i]);
       fs::create_directories(render->out);
       // Turn the camera about the vertical axis through the posed box's centre.
       const auto& g = frame.grid;
@@ -155,7 +184,7 @@ void register_avatar(CLI::App& app) {
         turn(0, 0) = std::cos(angle), turn(0, 2) = std::sin(angle), turn(2, 0) = -std::sin(angle),
         turn(2, 2) = std::cos(angle);
         turn.topRightCorner<3, 1>() = centre - turn.topLeftCorner<3, 3>() * centre;
-        PinholeCamera camera = split.cameras[i];
+        PinholeCamera camera = cameras[i];
         camera.extrinsic = camera.extrinsic * turn;  // world turned by `turn`, then seen by the camera
         const auto rgb = trained.avatar->render_image(frame, camera, data.background()).first;
         write_png((fs::path(render->out) / fmt::format("frame_{:04d}.png", k)).string(), to_image(rgb));
@@ -163,13 +192,14 @@ void register_avatar(CLI::App& app) {
       std::printf("wrote %d frames to %s\n", render->turntable, render->out.c_str());
       return;
     }
-    const int W = split.cameras[0].width, H = split.cameras[0].height;
+    const int W = cameras[indices[0]].width, H = cameras[indices[0]].height;
     const int columns = render->compare ? 2 : 1;
     Image sheet(W * columns, H * static_cast<int>(indices.size()));
     for (size_t row = 0; row < indices.size(); ++row) {
       const int64_t i = indices[row];
-      const auto frame = trained.avatar->pose(split.bone_transforms[i]);
-      const auto rgb = trained.avatar->render_image(frame, split.cameras[i], data.background()).first;
+      FSKIN_CHECK(cameras[i].width == W && cameras[i].height == H, "images of one sheet must have one size");
+      const auto frame = trained.avatar->pose(bones[i]);
+      const auto rgb = trained.avatar->render_image(frame, cameras[i], data.background()).first;
       if (render->compare) sheet.paste(to_image(split.images[i].to(torch::kFloat32) / 255), 0, static_cast<int>(row) * H);
       sheet.paste(to_image(rgb), (columns - 1) * W, static_cast<int>(row) * H);
     }

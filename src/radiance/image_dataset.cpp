@@ -238,6 +238,7 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
       {"joint_names", names},
       {"parents", model.data().parents},
       {"canonical_pose", resolve_canonical_pose(model, options.canonical_pose)},
+      {"canonical_pose_option", options.canonical_pose},
       {"width", options.width},
       {"height", options.height},
       {"supersampling", options.supersampling},
@@ -336,6 +337,38 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
   return summary;
 }
 
+std::vector<PinholeCamera> load_cameras(const std::string& camera_path, int64_t n) {
+  FSKIN_CHECK(fs::exists(camera_path), "{}: missing", camera_path);
+  std::vector<PinholeCamera> cameras;
+  const io::NpzReader camera_file(camera_path);
+  auto intrinsic = camera_file.tensor("intrinsic").to(torch::kFloat64);
+  auto extrinsic = camera_file.tensor("extrinsic").to(torch::kFloat64);
+  const auto height = camera_file.tensor("height").reshape({-1});
+  const auto width = camera_file.tensor("width").reshape({-1});
+  FSKIN_CHECK(height.numel() == 1 && width.numel() == 1, "{}: height and width must be single numbers", camera_path);
+  if (n < 0) n = extrinsic.dim() == 3 ? extrinsic.size(0) : intrinsic.dim() == 3 ? intrinsic.size(0) : 1;
+  if (intrinsic.dim() == 2) intrinsic = intrinsic.unsqueeze(0).expand({n, 3, 3});
+  if (extrinsic.dim() == 2) extrinsic = extrinsic.unsqueeze(0).expand({n, -1, -1});
+  if (extrinsic.dim() == 3 && extrinsic.size(1) == 3 && extrinsic.size(2) == 4)  // [R | t] without the last row
+    extrinsic = torch::cat({extrinsic, torch::tensor({0.0, 0.0, 0.0, 1.0}, torch::kFloat64).expand({n, 1, 4})}, 1);
+  expect_shape(intrinsic, {n, 3, 3}, camera_path + ": intrinsic (one (3, 3) camera or one per image of poses.npz)");
+  expect_shape(extrinsic, {n, 4, 4}, camera_path + ": extrinsic (one (4, 4) camera or one per image of poses.npz)");
+  intrinsic = intrinsic.contiguous();
+  extrinsic = extrinsic.contiguous();
+  for (int64_t i = 0; i < n; ++i) {
+    PinholeCamera camera;
+    camera.width = static_cast<int>(width.item<double>());
+    camera.height = static_cast<int>(height.item<double>());
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) camera.intrinsic(r, c) = intrinsic[i][r][c].item<double>();
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) camera.extrinsic(r, c) = extrinsic[i][r][c].item<double>();
+    camera.validate(fmt::format("{}: camera {}", camera_path, i));
+    cameras.push_back(camera);
+  }
+  return cameras;
+}
+
 ImageDataset::ImageDataset(std::string dir) : dir_(std::move(dir)) {
   const auto manifest_path = (fs::path(dir_) / "manifest.json").string();
   const auto manifest = read_json(manifest_path);
@@ -350,6 +383,8 @@ ImageDataset::ImageDataset(std::string dir) : dir_(std::move(dir)) {
     FSKIN_CHECK(bg.size() == 3, "{}: background must have 3 components", manifest_path);
     std::copy(bg.begin(), bg.end(), background_.begin());
     splits_ = manifest.at("splits").get<std::vector<std::string>>();
+    model_source_ = manifest.value("model", std::string());
+    canonical_pose_option_ = manifest.value("canonical_pose_option", std::string("default"));
   } catch (const nlohmann::json::exception& e) {
     fail("{}: {}", manifest_path, e.what());
   }
@@ -379,32 +414,7 @@ ImageSplit ImageDataset::load_split(const std::string& split) const {
   expect_shape(out.view_index, {n}, pose_path + ": view_index");
 
   const std::string camera_path = (split_dir / "cameras.npz").string();
-  FSKIN_CHECK(fs::exists(camera_path), "{}: missing", camera_path);
-  const io::NpzReader camera_file(camera_path);
-  auto intrinsic = camera_file.tensor("intrinsic").to(torch::kFloat64);
-  auto extrinsic = camera_file.tensor("extrinsic").to(torch::kFloat64);
-  const auto height = camera_file.tensor("height").reshape({-1});
-  const auto width = camera_file.tensor("width").reshape({-1});
-  FSKIN_CHECK(height.numel() == 1 && width.numel() == 1, "{}: height and width must be single numbers", camera_path);
-  if (intrinsic.dim() == 2) intrinsic = intrinsic.unsqueeze(0).expand({n, 3, 3});
-  if (extrinsic.dim() == 2) extrinsic = extrinsic.unsqueeze(0).expand({n, -1, -1});
-  if (extrinsic.dim() == 3 && extrinsic.size(1) == 3 && extrinsic.size(2) == 4)  // [R | t] without the last row
-    extrinsic = torch::cat({extrinsic, torch::tensor({0.0, 0.0, 0.0, 1.0}, torch::kFloat64).expand({n, 1, 4})}, 1);
-  expect_shape(intrinsic, {n, 3, 3}, camera_path + ": intrinsic (one (3, 3) camera or one per image of poses.npz)");
-  expect_shape(extrinsic, {n, 4, 4}, camera_path + ": extrinsic (one (4, 4) camera or one per image of poses.npz)");
-  intrinsic = intrinsic.contiguous();
-  extrinsic = extrinsic.contiguous();
-  for (int64_t i = 0; i < n; ++i) {
-    PinholeCamera camera;
-    camera.width = static_cast<int>(width.item<double>());
-    camera.height = static_cast<int>(height.item<double>());
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) camera.intrinsic(r, c) = intrinsic[i][r][c].item<double>();
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) camera.extrinsic(r, c) = extrinsic[i][r][c].item<double>();
-    camera.validate(fmt::format("{}: camera {}", camera_path, i));
-    out.cameras.push_back(camera);
-  }
+  out.cameras = load_cameras(camera_path, n);
   const int W = n > 0 ? out.cameras[0].width : 0, H = n > 0 ? out.cameras[0].height : 0;
   out.images = torch::empty({n, H, W, 3}, torch::kUInt8);
   out.masks = torch::empty({n, H, W}, torch::kUInt8);
@@ -423,6 +433,24 @@ ImageSplit ImageDataset::load_split(const std::string& split) const {
     std::memcpy(out.masks[i].data_ptr<uint8_t>(), mask.data(), mask.size());
   }
   return out;
+}
+
+torch::Tensor ImageDataset::bone_transforms(const PoseSet& poses, const std::string& context,
+                                           const std::string& model_path) const {
+  torch::NoGradGuard no_grad;
+  const std::string path = model_path.empty() ? model_source_ : model_path;
+  FSKIN_CHECK(!path.empty(), "{}: the manifest records no body model; pass one to pose new poses", dir_);
+  FSKIN_CHECK(fs::exists(path), "{}: body model {} (recorded in its manifest) is missing; pass the model file", dir_,
+              path);
+  const auto model = BodyModel::load(path);
+  poses.validate(context, model.num_joints(), model.data().joint_names);
+  const auto canonical = model.pose(canonical_pose(model, canonical_pose_option_).unsqueeze(0));
+  FSKIN_CHECK(canonical.vertices[0].sizes() == character_.vertices.sizes() &&
+                  torch::allclose(canonical.vertices[0], character_.vertices, 1e-4, 1e-5),
+              "{}: {} is not the body model this dataset was built from (its canonical vertices differ)", dir_, path);
+  const auto& moved = poses.joint_translations;
+  const auto posed = model.pose(poses.poses, {}, poses.trans, moved.defined() ? moved : torch::Tensor());
+  return relative_bone_transforms(posed.bone_transforms, canonical.bone_transforms).contiguous();
 }
 
 }  // namespace fskin

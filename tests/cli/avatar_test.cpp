@@ -77,6 +77,16 @@ TEST_F(AvatarCommands, RenderComparesWithTheGroundTruth) {
   EXPECT_EQ(sheet.height, 64);
   ASSERT_EQ(run_cli("avatar render " + path("run") + " --turntable 3 --out " + path("turn")), 0) << log();
   EXPECT_TRUE(fs::exists(path("turn/frame_0002.png")));
+  // A pose of a pose file, posed with the dataset's model, seen by a camera of a cameras.npz.
+  ASSERT_EQ(run_cli("avatar render " + path("run") + " --poses " + path("held_out.npz") + " --pose-index 0 --cameras " +
+                    path("images/novel_pose/cameras.npz") + " --out " + path("posed.png")),
+            0)
+      << log();
+  EXPECT_EQ(read_png(path("posed.png")).width, 32);
+  ASSERT_NE(run_cli("avatar render " + path("run") + " --poses " + path("held_out.npz") + " --pose-index 5 --out " +
+                    path("x.png")),
+            0);
+  EXPECT_NE(log().find("--pose-index 5 is out of range"), std::string::npos) << log();
   ASSERT_NE(run_cli("avatar render " + path("run") + " --split train --index 9 --out " + path("x.png")), 0);
   EXPECT_NE(log().find("--index 9 is out of range"), std::string::npos) << log();
 }

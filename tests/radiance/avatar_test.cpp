@@ -153,6 +153,25 @@ TEST(AvatarTraining, RaisesPsnrResumesAndMeshes) {
   EXPECT_FALSE(torch::allclose(posed.vertices, canonical.vertices));
 }
 
+TEST(AvatarTraining, StopsOnCtrlCWithACheckpoint) {
+  const auto& tiny = testing::tiny_image_dataset();
+  const auto run = testing::temp_dir("avatar_stop");
+  AvatarTrainOptions options;
+  options.data_dir = tiny.dir;
+  options.out_dir = (run / "run").string();
+  options.avatar = small_avatar();
+  options.steps = 1000;
+  options.rays_per_step = 64;
+  options.progress = false;
+  StopSignal stop;
+  options.stop = &stop;
+  StopSignal::request();  // as the first Ctrl-C does
+  const auto summary = train_avatar(options);
+  EXPECT_TRUE(summary.stopped);
+  EXPECT_LT(summary.last_step, 1000);
+  EXPECT_EQ(TrainedAvatar::load(options.out_dir).step, summary.last_step);
+}
+
 TEST(AvatarTraining, RejectsBadOptionsAndRuns) {
   AvatarTrainOptions options;
   options.data_dir = "x";

@@ -79,6 +79,23 @@ TEST(ImageDataset, RebuildingSkipsFinishedImagesAndRefusesOtherParameters) {
                         {tiny.dir, "different"});
 }
 
+TEST(ImageDataset, PosesNewPosesLikeItsOwnFrames) {
+  const auto& tiny = testing::tiny_image_dataset();
+  const auto model_path = testing::temp_dir("image_dataset_model") / "model.npz";
+  tiny.model.save(model_path.string());
+  const ImageDataset data(tiny.dir);
+  const auto novel_pose = data.load_split("novel_pose");
+  const auto bones = data.bone_transforms(tiny.held_out, "held out", model_path.string());
+  EXPECT_TRUE(torch::allclose(bones, novel_pose.bone_transforms, 1e-5, 1e-5));
+  CharacterOptions other;
+  other.resolution = 40;
+  other.height = 1.2;
+  const auto other_path = model_path.parent_path() / "other.npz";
+  make_character_model(other).save(other_path.string());
+  testing::expect_error([&] { data.bone_transforms(tiny.held_out, "held out", other_path.string()); },
+                        {other_path.string(), "not the body model"});
+}
+
 TEST(ImageDataset, BadFilesAreNamed) {
   const auto& tiny = testing::tiny_image_dataset();
   const auto dir = testing::temp_dir("image_dataset_bad");

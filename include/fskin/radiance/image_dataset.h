@@ -93,13 +93,27 @@ class ImageDataset {
   // Loads a split, checking that images, masks, cameras and poses agree (counts,
   // sizes, joints) and naming the file that does not.
   ImageSplit load_split(const std::string& split) const;
+  // Canonical -> posed bone transforms [N, J, 4, 4] of new poses, computed as
+  // build_image_dataset computed the dataset's: the body model (`model_path`,
+  // or the one the manifest records) posed and made relative to the dataset's
+  // canonical pose. Throws fskin::Error naming the file when the model is
+  // missing or is not the dataset's (other canonical vertices), or the poses
+  // do not fit its joints (errors prefixed `context`).
+  torch::Tensor bone_transforms(const PoseSet& poses, const std::string& context,
+                                const std::string& model_path = "") const;
 
  private:
   std::string dir_;
   AvatarCharacter character_;
   std::array<double, 3> background_{1.0, 1.0, 1.0};
   std::vector<std::string> splits_;
+  std::string model_source_, canonical_pose_option_ = "default";
 };
+
+// The cameras of a cameras.npz (layout above) for n images: one camera
+// repeated, or one per image (n < 0: as many as the file holds); each
+// validated (errors name the file and the camera).
+std::vector<PinholeCamera> load_cameras(const std::string& path, int64_t n);
 
 inline const std::vector<std::string>& image_split_names() {
   static const std::vector<std::string> names = {"train", "novel_view", "novel_pose"};
