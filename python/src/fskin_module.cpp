@@ -31,7 +31,12 @@
 #include "fskin/geometry/voxel_box.h"
 #include "fskin/invertible/pin.h"
 #include "fskin/io/mesh_io.h"
+#include "fskin/ops/hash_encoding.h"
 #include "fskin/ops/pin_pass.h"
+#include "fskin/ops/ray_compositing.h"
+#include "fskin/radiance/avatar_evaluation.h"
+#include "fskin/radiance/avatar_training.h"
+#include "fskin/radiance/image_dataset.h"
 #include "fskin/export/skinned_gltf.h"
 #include "fskin/inference/posed_meshing.h"
 #include "fskin/inference/rigged_avatar.h"
@@ -520,6 +525,151 @@ PYBIND11_MODULE(_fskin, m) {
         return py::make_tuple(mesh.vertices, mesh.faces);
       },
       py::arg("path"), "Read a .ply or .obj mesh: (vertices [V, 3], faces [F, 3])");
+  // Radiance-field ops and avatars from images (src/radiance; docs/image_datasets.md).
+  const auto encoding_options = [](int64_t levels, int64_t features, int64_t log2_size, int64_t base, double scale) {
+    fskin::HashEncodingOptions o;
+    o.levels = levels;
+    o.features_per_level = features;
+    o.log2_table_size = log2_size;
+    o.base_resolution = base;
+    o.per_level_scale = scale;
+    o.validate();
+    return o;
+  };
+  m.def(
+      "hash_encoding",
+      [encoding_options](const torch::Tensor& positions, const torch::Tensor& table, int64_t levels,
+                         int64_t features_per_level, int64_t log2_table_size, int64_t base_resolution,
+                         double per_level_scale) {
+        return fskin::hash_encoding(
+            positions, table,
+            encoding_options(levels, features_per_level, log2_table_size, base_resolution, per_level_scale));
+      },
+      py::arg("positions"), py::arg("table"), py::arg("levels") = 16, py::arg("features_per_level") = 2,
+      py::arg("log2_table_size") = 19, py::arg("base_resolution") = 16, py::arg("per_level_scale") = 1.5,
+      "instant-NGP's multi-resolution hash encoding (fused op): positions [N, 3] in the unit cube, table "
+      "[L, 2^T, F] -> features [N, L * F]; differentiable in the table and the positions");
+  m.def(
+      "hash_encoding_table",
+      [encoding_options](int64_t levels, int64_t features_per_level, int64_t log2_table_size,
+                         int64_t base_resolution, double per_level_scale, py::object dtype) {
+        auto options = torch::TensorOptions();
+        if (!dtype.is_none()) options = options.dtype(torch::python::detail::py_object_to_dtype(dtype));
+        return fskin::hash_encoding_table(
+            encoding_options(levels, features_per_level, log2_table_size, base_resolution, per_level_scale), options);
+      },
+      py::arg("levels") = 16, py::arg("features_per_level") = 2, py::arg("log2_table_size") = 19,
+      py::arg("base_resolution") = 16, py::arg("per_level_scale") = 1.5, py::arg("dtype") = py::none(),
+      "A hash-encoding table [L, 2^T, F] initialised as instant-NGP does: U(-1e-4, 1e-4)");
+  m.def(
+      "composite_rays",
+      [](const torch::Tensor& sigma, const torch::Tensor& rgb, const torch::Tensor& delta,
+         const torch::Tensor& background) {
+        const auto [color, opacity] = fskin::composite_rays(sigma, rgb, delta, background);
+        return py::make_tuple(color, opacity);
+      },
+      py::arg("sigma"), py::arg("rgb"), py::arg("delta"), py::arg("background"),
+      "Volume-rendering compositing (fused op): sigma [R, S], rgb [R, S, 3], delta [R, S], background [R, 3] -> "
+      "(color [R, 3], opacity [R]); differentiable in sigma and rgb");
+  m.def(
+      "build_image_dataset",
+      [](const std::string& model_path, const torch::Tensor& poses, const std::string& out,
+         const std::optional<torch::Tensor>& held_out_poses, int size, int views, int held_out_views,
+         int novel_view_frames, bool monocular, bool progress) {
+        const auto model = BodyModel::load(model_path);
+        const auto as_set = [&](const torch::Tensor& p) {
+          fskin::PoseSet set;
+          set.poses = p.detach().to(torch::kCPU, torch::kFloat32).contiguous();
+          set.trans = torch::zeros({set.poses.size(0), 3});
+          set.joint_names = model.data().joint_names;
+          return set;
+        };
+        fskin::ImageDatasetOptions options;
+        options.out_dir = out;
+        options.width = options.height = size;
+        options.training_views = views;
+        options.held_out_views = held_out_views;
+        options.novel_view_frames = novel_view_frames;
+        options.monocular = monocular;
+        options.progress = progress;
+        options.model_source = std::filesystem::absolute(model_path).string();
+        options.poses_source = "python";
+        options.ood_poses_source = held_out_poses ? "python" : "";
+        py::gil_scoped_release release;
+        return fskin::build_image_dataset(model, as_set(poses), held_out_poses ? as_set(*held_out_poses) : fskin::PoseSet{},
+                                          options)
+            .to_string();
+      },
+      py::arg("model"), py::arg("poses"), py::arg("out"), py::arg("held_out_poses") = py::none(),
+      py::arg("size") = 256, py::arg("views") = 4, py::arg("held_out_views") = 4, py::arg("novel_view_frames") = 8,
+      py::arg("monocular") = false, py::arg("progress") = false,
+      "An image dataset as `fskin data images` writes it (PeopleSnapshot's layout), from a model file and poses "
+      "[N, J, 3]; returns its summary");
+  m.def(
+      "train_avatar",
+      [](const std::string& data, const std::string& out, int64_t steps, int64_t rays_per_step, bool resume,
+         uint64_t seed, bool progress) {
+        fskin::AvatarTrainOptions options;
+        options.data_dir = data;
+        options.out_dir = out;
+        options.steps = steps;
+        options.rays_per_step = rays_per_step;
+        options.resume = resume;
+        options.seed = seed;
+        options.progress = progress;
+        fskin::AvatarTrainSummary summary;
+        {
+          py::gil_scoped_release release;
+          const fskin::SingleThreadedBlasScope blas;  // as `fskin avatar train` runs
+          summary = fskin::train_avatar(options);
+        }
+        return py::dict(py::arg("first_step") = summary.first_step, py::arg("last_step") = summary.last_step,
+                        py::arg("seconds") = summary.seconds, py::arg("loss") = summary.final_loss,
+                        py::arg("batch_psnr") = summary.final_psnr);
+      },
+      py::arg("data"), py::arg("out"), py::arg("steps") = 2000, py::arg("rays_per_step") = 4096,
+      py::arg("resume") = false, py::arg("seed") = 0, py::arg("progress") = false,
+      "`fskin avatar train`: a radiance field through the Fast-SNARF deformer from an image dataset");
+  m.def(
+      "evaluate_avatar",
+      [](const std::string& run, const std::string& split, const std::string& data, int64_t max_images) {
+        py::gil_scoped_release release;
+        auto trained = fskin::TrainedAvatar::load(run);
+        const fskin::ImageDataset dataset(data.empty() ? trained.options.data_dir : data);
+        const auto scores = fskin::evaluate_avatar(trained.avatar, dataset, split, max_images, false);
+        py::gil_scoped_acquire acquire;
+        return py::module_::import("json").attr("loads")(scores.to_json());
+      },
+      py::arg("run"), py::arg("split") = "novel_view", py::arg("data") = "", py::arg("max_images") = 0,
+      "`fskin avatar eval`: PSNR / SSIM per image of a split, as a dict (mean_psnr, mean_ssim, frames, ...)");
+  m.def(
+      "render_avatar",
+      [](const std::string& run, const torch::Tensor& bones, const torch::Tensor& intrinsic,
+         const torch::Tensor& extrinsic, int width, int height, std::vector<double> background) {
+        FSKIN_CHECK(background.size() == 3, "render_avatar: background must have 3 components");
+        fskin::PinholeCamera camera;
+        camera.width = width;
+        camera.height = height;
+        const auto k = intrinsic.to(torch::kCPU, torch::kFloat64).contiguous();
+        const auto e = extrinsic.to(torch::kCPU, torch::kFloat64).contiguous();
+        fskin::expect_shape(k, {3, 3}, "render_avatar: intrinsic");
+        fskin::expect_shape(e, {4, 4}, "render_avatar: extrinsic");
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) camera.intrinsic(r, c) = k[r][c].item<double>();
+        for (int r = 0; r < 4; ++r)
+          for (int c = 0; c < 4; ++c) camera.extrinsic(r, c) = e[r][c].item<double>();
+        py::gil_scoped_release release;
+        auto trained = fskin::TrainedAvatar::load(run);
+        const auto frame = trained.avatar->pose(bones.detach().to(torch::kCPU, torch::kFloat32));
+        const auto [rgb, opacity] =
+            trained.avatar->render_image(frame, camera, {background[0], background[1], background[2]});
+        py::gil_scoped_acquire acquire;
+        return py::make_tuple(rgb, opacity);
+      },
+      py::arg("run"), py::arg("bones"), py::arg("intrinsic"), py::arg("extrinsic"), py::arg("width"),
+      py::arg("height"), py::arg("background") = std::vector<double>{1.0, 1.0, 1.0},
+      "Render a trained avatar in bones [J, 4, 4] (canonical -> posed) by an OpenCV camera: (rgb [H, W, 3], "
+      "opacity [H, W])");
   m.def("openblas_core", &fskin::openblas_core, "The kernels OpenBLAS runs (openblas_get_corename), or None");
   m.def("recommended_openblas_core", &fskin::openblas_core_setting,
         "The OPENBLAS_CORETYPE to start Python with where OpenBLAS fell back to its SSE3 kernels on a CPU with "
