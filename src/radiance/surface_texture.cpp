@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "fskin/body/smpl_skeleton.h"
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "fskin/export/palette.h"
@@ -38,11 +39,10 @@ SurfaceTexture::SurfaceTexture(const torch::Tensor& canonical_vertices, const to
   long_axis_ = static_cast<int>(extent.argmax().item<int64_t>());
   period_ = character_size(vertices, "SurfaceTexture") / 24.0;
 
-  // SMPL-named skeletons only (the built-in character, SMPL fits).
+  // SMPL skeletons only (body/smpl_skeleton.h: the built-in character, SMPL
+  // fits); their joint names are SMPL's.
   parts_.assign(num_bones, Part::Plain);
-  const bool smpl_names = std::find(joint_names.begin(), joint_names.end(), "head") != joint_names.end() &&
-                          std::find(joint_names.begin(), joint_names.end(), "left_wrist") != joint_names.end();
-  if (!smpl_names) return;
+  if (!is_smpl_skeleton(joint_names)) return;
   int64_t head = -1;
   for (int64_t j = 0; j < num_bones; ++j) {
     const auto& name = joint_names[j];

@@ -29,6 +29,18 @@ AvatarOptions small_avatar() {
   return o;
 }
 
+// Training options on the tiny dataset into a fresh run directory `name`/run.
+AvatarTrainOptions tiny_training(const std::string& name, int64_t steps, int64_t rays) {
+  AvatarTrainOptions options;
+  options.data_dir = testing::tiny_image_dataset().dir;
+  options.out_dir = (testing::temp_dir(name) / "run").string();
+  options.avatar = small_avatar();
+  options.steps = steps;
+  options.rays_per_step = rays;
+  options.progress = false;
+  return options;
+}
+
 // The field made constant: density exp(raw) / extent and colour sigmoid(.) everywhere in its box.
 void make_field_constant(Avatar& avatar, double raw_sigma, std::array<double, 3> raw_rgb) {
   torch::NoGradGuard no_grad;
@@ -104,19 +116,12 @@ TEST(Avatar, EmptyCanonicalSpaceRendersTheBackground) {
 
 TEST(AvatarTraining, RaisesPsnrResumesAndMeshes) {
   const auto& tiny = testing::tiny_image_dataset();
-  const auto run = testing::temp_dir("avatar_training");
-  AvatarTrainOptions options;
-  options.data_dir = tiny.dir;
-  options.out_dir = (run / "run").string();
-  options.avatar = small_avatar();
-  options.steps = 150;
-  options.rays_per_step = 1024;
+  auto options = tiny_training("avatar_training", 150, 1024);
   options.images_per_step = 2;
   options.checkpoint_every = 100;
   options.occupancy_every = 25;
   options.occupancy_warmup = 50;
   options.decay_fraction = 0;  // a constant learning rate: the most progress in 150 steps
-  options.progress = false;
 
   const ImageDataset data(tiny.dir);
   Avatar untrained(data.character(), options.avatar);
@@ -154,15 +159,7 @@ TEST(AvatarTraining, RaisesPsnrResumesAndMeshes) {
 }
 
 TEST(AvatarTraining, StopsOnCtrlCWithACheckpoint) {
-  const auto& tiny = testing::tiny_image_dataset();
-  const auto run = testing::temp_dir("avatar_stop");
-  AvatarTrainOptions options;
-  options.data_dir = tiny.dir;
-  options.out_dir = (run / "run").string();
-  options.avatar = small_avatar();
-  options.steps = 1000;
-  options.rays_per_step = 64;
-  options.progress = false;
+  auto options = tiny_training("avatar_stop", 1000, 64);
   StopSignal stop;
   options.stop = &stop;
   StopSignal::request();  // as the first Ctrl-C does
