@@ -67,21 +67,11 @@ AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const
     score.view_index = split.view_index[i].item<int64_t>();
     score.psnr = psnr(rendered, truth);
     score.ssim = ssim(rendered, truth);
-    const auto on = split.masks[i] > 0;
-    const auto rows = torch::nonzero(on.any(1)).reshape({-1}), cols = torch::nonzero(on.any(0)).reshape({-1});
-    if (rows.numel() > 0) {
-      const int64_t H = on.size(0), W = on.size(1);
-      const int64_t v0 = rows.min().item<int64_t>(), v1 = rows.max().item<int64_t>() + 1;
-      const int64_t u0 = cols.min().item<int64_t>(), u1 = cols.max().item<int64_t>() + 1;
-      const int64_t gv = (v1 - v0) / 20 + 1, gu = (u1 - u0) / 20 + 1;  // 10 % in all
-      const auto crop = [&](const torch::Tensor& image) {
-        return image.slice(0, std::max<int64_t>(0, v0 - gv), std::min(H, v1 + gv))
-            .slice(1, std::max<int64_t>(0, u0 - gu), std::min(W, u1 + gu));
-      };
-      score.psnr_subject_box = psnr(crop(rendered), crop(truth));
-    } else {
-      score.psnr_subject_box = score.psnr;
-    }
+    const auto box = mask_box(split.masks[i]);  // the whole image for an empty mask
+    const auto crop = [&](const torch::Tensor& image) {
+      return image.slice(0, box[1], box[3]).slice(1, box[0], box[2]);
+    };
+    score.psnr_subject_box = psnr(crop(rendered), crop(truth));
     out.mean_psnr_subject_box += score.psnr_subject_box / static_cast<double>(n);
     out.mean_psnr += score.psnr / static_cast<double>(n);
     out.mean_ssim += score.ssim / static_cast<double>(n);

@@ -133,26 +133,6 @@ ArchiveReader state_reader(Avatar& avatar, torch::optim::Optimizer* optimizer, i
   };
 }
 
-// Per image, the box (u0, v0, u1, v1) of its mask grown by 10 % (the whole image without a subject).
-std::vector<std::array<int64_t, 4>> mask_boxes(const torch::Tensor& masks) {
-  std::vector<std::array<int64_t, 4>> boxes;
-  const int64_t H = masks.size(1), W = masks.size(2);
-  for (int64_t i = 0; i < masks.size(0); ++i) {
-    const auto on = masks[i] > 0;
-    const auto rows = torch::nonzero(on.any(1)).reshape({-1}), cols = torch::nonzero(on.any(0)).reshape({-1});
-    if (rows.numel() == 0) {
-      boxes.push_back({0, 0, W - 1, H - 1});
-      continue;
-    }
-    const int64_t v0 = rows.min().item<int64_t>(), v1 = rows.max().item<int64_t>();
-    const int64_t u0 = cols.min().item<int64_t>(), u1 = cols.max().item<int64_t>();
-    const int64_t gu = (u1 - u0 + 1) / 10 + 1, gv = (v1 - v0 + 1) / 10 + 1;
-    boxes.push_back({std::max<int64_t>(0, u0 - gu), std::max<int64_t>(0, v0 - gv), std::min(W - 1, u1 + gu),
-                     std::min(H - 1, v1 + gv)});
-  }
-  return boxes;
-}
-
 }  // namespace
 
 void AvatarTrainOptions::validate() const {
@@ -203,7 +183,9 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
   int64_t step = 0;
   if (options.resume) load_latest_checkpoint(run_dir, state_reader(avatar, &adam, step));
 
-  const auto boxes = mask_boxes(split.masks);
+  // Per image, its mask's box grown by 20 % of its size (ends exclusive).
+  std::vector<std::array<int64_t, 4>> boxes;
+  for (int64_t i = 0; i < split.size(); ++i) boxes.push_back(mask_box(split.masks[i], 0.2));
   const auto dataset_background = torch::tensor(
       {data.background()[0], data.background()[1], data.background()[2]}, torch::kFloat32);
   // Posed frames per distinct pose (the views of one pose share it), made
@@ -258,9 +240,9 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
       const int64_t n = options.rays_per_step / options.images_per_step + (k < options.rays_per_step % options.images_per_step);
       const int64_t in_box = static_cast<int64_t>(std::llround(options.mask_box_fraction * n));
       const auto& b = boxes[i];
-      const auto u = torch::cat({torch::randint(b[0], b[2] + 1, {in_box}, torch::kInt64),
+      const auto u = torch::cat({torch::randint(b[0], b[2], {in_box}, torch::kInt64),
                                  torch::randint(0, W, {n - in_box}, torch::kInt64)});
-      const auto v = torch::cat({torch::randint(b[1], b[3] + 1, {in_box}, torch::kInt64),
+      const auto v = torch::cat({torch::randint(b[1], b[3], {in_box}, torch::kInt64),
                                  torch::randint(0, H, {n - in_box}, torch::kInt64)});
       const auto flat = v * W + u;
       const auto rgb = split.images[i].reshape({-1, 3}).index_select(0, flat).to(torch::kFloat32) / 255;

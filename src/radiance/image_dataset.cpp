@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <map>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -178,12 +179,11 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
     return options.monocular ? 2 * M_PI * static_cast<double>(p) / static_cast<double>(n_train) : 0.0;
   };
   const int train_views = options.monocular ? 1 : options.training_views;
+  std::map<std::string, int64_t> split_sizes;
   const auto add = [&](const std::string& split, int64_t pose_index, int64_t view, const PoseSet& set, double turn) {
     ImagePlan item;
     item.split = split;
-    item.index = static_cast<int64_t>(std::count_if(plan.begin(), plan.end(), [&](const ImagePlan& i) {
-      return i.split == split;
-    }));
+    item.index = split_sizes[split]++;
     item.pose_index = pose_index;
     item.view_index = view;
     std::tie(item.bones, item.vertices) = posed_frame(set, pose_index, turn);
@@ -256,6 +256,15 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
   const BuildManifest build_manifest(options.out_dir, manifest);
   character.save((dir / "canonical.npz").string());
 
+  // What the shader interpolates per sample: canonical positions and weights.
+  const auto canonical_vertices_f = character.vertices.to(torch::kFloat32).contiguous();
+  const auto weights = character.weights.to(torch::kFloat32).contiguous();
+  const auto faces_i = character.faces.to(torch::kInt64).contiguous();
+  const float* canonical_vertices = canonical_vertices_f.data_ptr<float>();
+  const float* weight_data = weights.data_ptr<float>();
+  const int64_t* faces = faces_i.data_ptr<int64_t>();
+  const int64_t J = model.num_joints();
+
   ImageDatasetSummary summary;
   for (const auto& split : image_split_names()) {
     std::vector<const ImagePlan*> items;
@@ -304,11 +313,6 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
         continue;
       }
       const Mesh mesh{item->vertices, character.faces, {}};
-      const float* canonical_vertices = character.vertices.data_ptr<float>();
-      const auto weights = character.weights.to(torch::kFloat32).contiguous();
-      const float* weight_data = weights.data_ptr<float>();
-      const int64_t* faces = character.faces.data_ptr<int64_t>();
-      const int64_t J = model.num_joints();
       const auto shade = [&](int64_t face, float b0, float b1, float b2) {
         thread_local std::vector<float> w;
         w.assign(J, 0.0f);
@@ -451,6 +455,19 @@ torch::Tensor ImageDataset::bone_transforms(const PoseSet& poses, const std::str
   const auto& moved = poses.joint_translations;
   const auto posed = model.pose(poses.poses, {}, poses.trans, moved.defined() ? moved : torch::Tensor());
   return relative_bone_transforms(posed.bone_transforms, canonical.bone_transforms).contiguous();
+}
+
+std::array<int64_t, 4> mask_box(const torch::Tensor& mask, double grow) {
+  FSKIN_CHECK(mask.dim() == 2, "mask_box: mask must be [H, W]");
+  const int64_t H = mask.size(0), W = mask.size(1);
+  const auto on = mask > 0;
+  const auto rows = torch::nonzero(on.any(1)).reshape({-1}), cols = torch::nonzero(on.any(0)).reshape({-1});
+  if (rows.numel() == 0) return {0, 0, W, H};
+  const int64_t v0 = rows.min().item<int64_t>(), v1 = rows.max().item<int64_t>() + 1;
+  const int64_t u0 = cols.min().item<int64_t>(), u1 = cols.max().item<int64_t>() + 1;
+  const auto gu = static_cast<int64_t>(std::ceil(0.5 * grow * static_cast<double>(u1 - u0)));
+  const auto gv = static_cast<int64_t>(std::ceil(0.5 * grow * static_cast<double>(v1 - v0)));
+  return {std::max<int64_t>(0, u0 - gu), std::max<int64_t>(0, v0 - gv), std::min(W, u1 + gu), std::min(H, v1 + gv)};
 }
 
 }  // namespace fskin

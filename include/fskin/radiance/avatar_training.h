@@ -21,7 +21,7 @@ struct AvatarTrainOptions {
   int64_t steps = 2000;
   int64_t rays_per_step = 4096;
   int64_t images_per_step = 4;  // rays are drawn from this many training images per step
-  // Fraction of the rays drawn inside each image's mask box (grown by 10 %);
+  // Fraction of the rays drawn inside each image's mask box (grown by 20 % of its size);
   // the rest anywhere in the image.
   double mask_box_fraction = 0.9;
   double learning_rate = 1e-2;  // Adam, hash table and MLP

@@ -115,6 +115,11 @@ class ImageDataset {
 // validated (errors name the file and the camera).
 std::vector<PinholeCamera> load_cameras(const std::string& path, int64_t n);
 
+// The box (u0, v0, u1, v1), ends exclusive, of a mask's pixels > 0, grown by
+// `grow` times its size (half on each side) and clipped to the image; the
+// whole image for an empty mask.
+std::array<int64_t, 4> mask_box(const torch::Tensor& mask, double grow = 0.1);
+
 inline const std::vector<std::string>& image_split_names() {
   static const std::vector<std::string> names = {"train", "novel_view", "novel_pose"};
   return names;
