@@ -3,27 +3,11 @@
 #include <torch/torch.h>
 
 #include "fskin/core/error.h"
+#include "fskin/core/plausibility.h"
 #include "fskin/core/tensor_checks.h"
 #include "fskin/io/npz.h"
 
 namespace fskin {
-
-namespace {
-
-// Coordinates beyond this (metres) are corrupt data, not a character: the
-// largest a user may bring (tens of metres) is far below it.
-constexpr double kMaxCoordinate = 1e6;
-
-void expect_plausible(const torch::Tensor& t, const std::string& name) {
-  expect_floating(t, name);
-  expect_finite(t, name);
-  if (t.numel() == 0) return;
-  const double largest = t.abs().max().item<double>();
-  FSKIN_CHECK(largest <= kMaxCoordinate, "{}: implausible magnitude {:g} (|value| <= {:g} expected)", name, largest,
-              kMaxCoordinate);
-}
-
-}  // namespace
 
 void DatasetFrame::validate(const std::string& context) const {
   expect_shape(points, {-1, 3}, context + ": points");

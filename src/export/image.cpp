@@ -59,6 +59,12 @@ namespace {
 std::vector<uint8_t> decode_png(const std::string& path, int channels, int& width, int& height) {
   const std::string bytes = read_file(path);
   int stored_channels = 0;
+  // The header first: a corrupt size must not become a giant allocation.
+  FSKIN_CHECK(stbi_info_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()), static_cast<int>(bytes.size()),
+                                    &width, &height, &stored_channels) != 0,
+              "{}: not a readable PNG image ({})", path, stbi_failure_reason());
+  FSKIN_CHECK(width >= 1 && height >= 1 && width <= kMaxImageSide && height <= kMaxImageSide,
+              "{}: {}x{} pixels: each side must be within 1..{}", path, width, height, kMaxImageSide);
   std::unique_ptr<stbi_uc, void (*)(void*)> pixels(
       stbi_load_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()), static_cast<int>(bytes.size()),
                             &width, &height, &stored_channels, channels),

@@ -62,8 +62,11 @@ nlohmann::json options_json(const AvatarTrainOptions& o) {
   };
 }
 
-AvatarTrainOptions options_from_json(const nlohmann::json& j, const std::string& path) {
+// The options a run recorded in its avatar.json, validated: every failure
+// names the file.
+AvatarTrainOptions read_run_options(const std::string& path, const std::string& run_dir) {
   try {
+    const auto j = nlohmann::json::parse(read_file(path));
     FSKIN_CHECK(j.at("format").get<std::string>() == "fskin-avatar-run", "{}: not an avatar run", path);
     AvatarTrainOptions o;
     auto& a = o.avatar;
@@ -98,8 +101,12 @@ AvatarTrainOptions options_from_json(const nlohmann::json& j, const std::string&
     o.checkpoint_every = j.at("checkpoint_every");
     o.log_every = j.at("log_every");
     o.seed = j.at("seed");
+    o.out_dir = run_dir;
+    o.validate();
     return o;
   } catch (const nlohmann::json::exception& e) {
+    fail("{}: {}", path, e.what());
+  } catch (const Error& e) {
     fail("{}: {}", path, e.what());
   }
 }
@@ -163,8 +170,7 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
     FSKIN_CHECK(requested.resume, "{} already holds an avatar run; pass --resume to continue it or use another --out",
                 run_dir);
     // The run's own settings; only the number of steps may change.
-    options = options_from_json(nlohmann::json::parse(read_file(config_file)), config_file);
-    options.out_dir = run_dir;
+    options = read_run_options(config_file, run_dir);
     options.steps = requested.steps;
     options.progress = requested.progress;
     options.stop = requested.stop;
@@ -314,8 +320,7 @@ TrainedAvatar TrainedAvatar::load(const std::string& run_dir) {
   FSKIN_CHECK(fs::exists(config_file), "{}: not an avatar run (no avatar.json; train one with `fskin avatar train`)",
               run_dir);
   TrainedAvatar out;
-  out.options = options_from_json(nlohmann::json::parse(read_file(config_file)), config_file);
-  out.options.out_dir = run_dir;
+  out.options = read_run_options(config_file, run_dir);
   const auto character = AvatarCharacter::load((fs::path(run_dir) / "canonical.npz").string());
   out.avatar = Avatar(character, out.options.avatar);
   const auto loaded = load_latest_checkpoint(run_dir, state_reader(out.avatar, nullptr, out.step));

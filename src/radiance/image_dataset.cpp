@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fskin/core/error.h"
+#include "fskin/core/plausibility.h"
 #include "fskin/core/tensor_checks.h"
 #include "fskin/data/build_manifest.h"
 #include "fskin/data/dataset_builder.h"
@@ -21,6 +22,7 @@
 #include "fskin/radiance/surface_texture.h"
 #include "fskin/skeleton/forward_kinematics.h"
 #include "fskin/skeleton/lbs.h"
+#include "fskin/skeleton/skeleton.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/util/progress.h"
 #include "fskin/version.h"
@@ -115,22 +117,38 @@ AvatarCharacter AvatarCharacter::load(const std::string& path) {
   FSKIN_CHECK(fs::exists(path), "{}: missing", path);
   const io::NpzReader npz(path);
   AvatarCharacter c;
-  c.vertices = npz.tensor("vertices").to(torch::kFloat32);
-  c.faces = npz.tensor("faces").to(torch::kInt64);
-  c.weights = npz.tensor("weights").to(torch::kFloat32);
-  c.joints = npz.tensor("joints").to(torch::kFloat32);
-  const auto parents = npz.tensor("parents").to(torch::kInt64).contiguous();
+  const auto floating = [&](const std::string& key) {
+    auto t = npz.tensor(key);
+    expect_floating(t, path + ": " + key);
+    return t.to(torch::kFloat32);
+  };
+  const auto integral = [&](const std::string& key) {
+    auto t = npz.tensor(key);
+    FSKIN_CHECK(!t.is_floating_point() && t.scalar_type() != torch::kBool, "{}: {} must hold integers, got {}", path,
+                key, std::string(c10::toString(t.scalar_type())));
+    return t.to(torch::kInt64).contiguous();
+  };
+  c.vertices = floating("vertices");
+  c.faces = integral("faces");
+  c.weights = floating("weights");
+  c.joints = floating("joints");
+  const auto parents = integral("parents");
+  expect_shape(parents, {-1}, path + ": parents");
   c.parents.assign(parents.data_ptr<int64_t>(), parents.data_ptr<int64_t>() + parents.numel());
   c.joint_names = npz.strings("joint_names");
   expect_shape(c.vertices, {-1, 3}, path + ": vertices");
+  FSKIN_CHECK(c.vertices.size(0) > 0, "{}: no vertices", path);
   expect_shape(c.faces, {-1, 3}, path + ": faces");
   expect_shape(c.weights, {c.vertices.size(0), -1}, path + ": weights");
   expect_shape(c.joints, {c.weights.size(1), 3}, path + ": joints");
-  expect_finite(c.vertices, path + ": vertices");
+  expect_plausible(c.vertices, path + ": vertices");
   expect_finite(c.weights, path + ": weights");
   FSKIN_CHECK(c.num_joints() == c.weights.size(1) && static_cast<int64_t>(c.joint_names.size()) == c.num_joints(),
               "{}: {} parents and {} joint names for {} weight columns", path, c.parents.size(), c.joint_names.size(),
               c.weights.size(1));
+  // The tree (one root first, parents before children, unique names) and finite joints.
+  Skeleton{c.joint_names, c.parents, c.joints}.validate(path);
+  expect_plausible(c.joints, path + ": joints");
   FSKIN_CHECK(c.faces.numel() == 0 || (c.faces.min().item<int64_t>() >= 0 &&
                                        c.faces.max().item<int64_t>() < c.vertices.size(0)),
               "{}: face indices out of range for {} vertices", path, c.vertices.size(0));
@@ -345,24 +363,41 @@ std::vector<PinholeCamera> load_cameras(const std::string& camera_path, int64_t 
   FSKIN_CHECK(fs::exists(camera_path), "{}: missing", camera_path);
   std::vector<PinholeCamera> cameras;
   const io::NpzReader camera_file(camera_path);
-  auto intrinsic = camera_file.tensor("intrinsic").to(torch::kFloat64);
-  auto extrinsic = camera_file.tensor("extrinsic").to(torch::kFloat64);
-  const auto height = camera_file.tensor("height").reshape({-1});
-  const auto width = camera_file.tensor("width").reshape({-1});
+  auto intrinsic = camera_file.tensor("intrinsic");
+  auto extrinsic = camera_file.tensor("extrinsic");
+  expect_floating(intrinsic, camera_path + ": intrinsic");
+  expect_floating(extrinsic, camera_path + ": extrinsic");
+  intrinsic = intrinsic.to(torch::kFloat64);
+  extrinsic = extrinsic.to(torch::kFloat64);
+  const auto height = camera_file.tensor("height").reshape({-1}).to(torch::kFloat64);
+  const auto width = camera_file.tensor("width").reshape({-1}).to(torch::kFloat64);
   FSKIN_CHECK(height.numel() == 1 && width.numel() == 1, "{}: height and width must be single numbers", camera_path);
+  const double h = height.item<double>(), w = width.item<double>();
+  FSKIN_CHECK(h >= 1 && w >= 1 && h <= kMaxImageSide && w <= kMaxImageSide && h == std::floor(h) && w == std::floor(w),
+              "{}: height and width must be whole numbers within 1..{}, got {:g} x {:g}", camera_path, kMaxImageSide,
+              w, h);
+  const std::string layout = "one camera, or one per image of poses.npz";
+  FSKIN_CHECK((intrinsic.dim() == 2 || intrinsic.dim() == 3) && intrinsic.size(-2) == 3 && intrinsic.size(-1) == 3,
+              "{}: intrinsic must be (3, 3) or (N, 3, 3) ({}), got {}", camera_path, layout,
+              shape_string(intrinsic.sizes()));
+  FSKIN_CHECK((extrinsic.dim() == 2 || extrinsic.dim() == 3) && (extrinsic.size(-2) == 3 || extrinsic.size(-2) == 4) &&
+                  extrinsic.size(-1) == 4,
+              "{}: extrinsic must be (4, 4), (3, 4), (N, 4, 4) or (N, 3, 4) ({}), got {}", camera_path, layout,
+              shape_string(extrinsic.sizes()));
   if (n < 0) n = extrinsic.dim() == 3 ? extrinsic.size(0) : intrinsic.dim() == 3 ? intrinsic.size(0) : 1;
   if (intrinsic.dim() == 2) intrinsic = intrinsic.unsqueeze(0).expand({n, 3, 3});
   if (extrinsic.dim() == 2) extrinsic = extrinsic.unsqueeze(0).expand({n, -1, -1});
-  if (extrinsic.dim() == 3 && extrinsic.size(1) == 3 && extrinsic.size(2) == 4)  // [R | t] without the last row
-    extrinsic = torch::cat({extrinsic, torch::tensor({0.0, 0.0, 0.0, 1.0}, torch::kFloat64).expand({n, 1, 4})}, 1);
-  expect_shape(intrinsic, {n, 3, 3}, camera_path + ": intrinsic (one (3, 3) camera or one per image of poses.npz)");
-  expect_shape(extrinsic, {n, 4, 4}, camera_path + ": extrinsic (one (4, 4) camera or one per image of poses.npz)");
+  if (extrinsic.size(1) == 3)  // [R | t] without the last row
+    extrinsic = torch::cat({extrinsic, torch::tensor({0.0, 0.0, 0.0, 1.0}, torch::kFloat64).expand({extrinsic.size(0), 1, 4})}, 1);
+  expect_shape(intrinsic, {n, 3, 3}, camera_path + ": intrinsic (" + layout + ")");
+  expect_shape(extrinsic, {n, 4, 4}, camera_path + ": extrinsic (" + layout + ")");
+  expect_plausible(extrinsic, camera_path + ": extrinsic");
   intrinsic = intrinsic.contiguous();
   extrinsic = extrinsic.contiguous();
   for (int64_t i = 0; i < n; ++i) {
     PinholeCamera camera;
-    camera.width = static_cast<int>(width.item<double>());
-    camera.height = static_cast<int>(height.item<double>());
+    camera.width = static_cast<int>(w);
+    camera.height = static_cast<int>(h);
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) camera.intrinsic(r, c) = intrinsic[i][r][c].item<double>();
     for (int r = 0; r < 4; ++r)
@@ -387,6 +422,11 @@ ImageDataset::ImageDataset(std::string dir) : dir_(std::move(dir)) {
     FSKIN_CHECK(bg.size() == 3, "{}: background must have 3 components", manifest_path);
     std::copy(bg.begin(), bg.end(), background_.begin());
     splits_ = manifest.at("splits").get<std::vector<std::string>>();
+    for (const auto& split : splits_) {
+      // A split is a directory of this dataset: a plain name, not a path.
+      const bool plain = !split.empty() && split != "." && split != ".." && split.find_first_of("/\\") == std::string::npos;
+      FSKIN_CHECK(plain, "{}: split '{}' is not a directory name inside the dataset", manifest_path, split);
+    }
     model_source_ = manifest.value("model", std::string());
     canonical_pose_option_ = manifest.value("canonical_pose_option", std::string("default"));
   } catch (const nlohmann::json::exception& e) {
@@ -404,11 +444,13 @@ ImageSplit ImageDataset::load_split(const std::string& split) const {
   const std::string pose_path = (split_dir / "poses.npz").string();
   FSKIN_CHECK(fs::exists(pose_path), "{}: missing", pose_path);
   const io::NpzReader pose_file(pose_path);
-  out.bone_transforms = pose_file.tensor("bone_transforms").to(torch::kFloat32).contiguous();
+  out.bone_transforms = pose_file.tensor("bone_transforms");
+  expect_floating(out.bone_transforms, pose_path + ": bone_transforms");
+  out.bone_transforms = out.bone_transforms.to(torch::kFloat32).contiguous();
   expect_shape(out.bone_transforms, {-1, character_.num_joints(), 4, 4},
                pose_path + ": bone_transforms (for the " + std::to_string(character_.num_joints()) +
                    " joints of canonical.npz)");
-  expect_finite(out.bone_transforms, pose_path + ": bone_transforms");
+  expect_plausible(out.bone_transforms, pose_path + ": bone_transforms");
   const int64_t n = out.bone_transforms.size(0);
   out.pose_index = pose_file.contains("pose_index") ? pose_file.tensor("pose_index").to(torch::kInt64)
                                                     : torch::arange(n, torch::kInt64);

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "fskin/core/error.h"
+#include "fskin/util/atomic_file.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -43,6 +44,23 @@ TEST(Image, BadSizesThrow) {
   Image image(4, 4);
   EXPECT_THROW(image.paste(Image(2, 2), 3, 0), Error);
   testing::expect_error([] { write_png("unused.png", Image{}); }, {"unused.png", "empty"});
+}
+
+TEST(Image, ReadingRefusesCorruptFilesAndHugeHeadersNamingTheFile) {
+  const auto dir = testing::temp_dir("png_bad");
+  const auto path = (dir / "mask.png").string();
+  write_png(path, Image(6, 4, {200, 0, 0}));
+  EXPECT_EQ(read_png(path).width, 6);
+  int width = 0, height = 0;
+  EXPECT_EQ(read_png_gray(path, width, height)[0], 200);
+  // IHDR's width (big-endian, bytes 16..19) set to 100,000: stb would allocate it.
+  std::string bytes = read_file(path);
+  bytes[16] = 0, bytes[17] = 0x01, bytes[18] = static_cast<char>(0x86), bytes[19] = static_cast<char>(0xa0);
+  write_file_atomically(path, bytes);
+  testing::expect_error([&] { read_png(path); }, {path, "100000x4", "1..16384"});
+  write_file_atomically(path, "not a png");
+  testing::expect_error([&] { read_png_gray(path, width, height); }, {path, "not a readable PNG"});
+  fs::remove_all(dir);
 }
 
 }  // namespace

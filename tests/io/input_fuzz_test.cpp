@@ -13,11 +13,13 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
@@ -34,8 +36,11 @@
 #include "fskin/import/motion_import.h"
 #include "fskin/io/mesh_io.h"
 #include "fskin/io/npz.h"
+#include "fskin/radiance/avatar_training.h"
+#include "fskin/radiance/image_dataset.h"
 #include "fskin/training/train_config.h"
 #include "fskin/util/atomic_file.h"
+#include "radiance/tiny_image_dataset.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -142,7 +147,7 @@ torch::Tensor mutate_tensor(torch::Tensor t, Random& rng, std::string& what) {
     case 6:
       what = "one row fewer";
       return t.dim() > 0 && t.size(0) > 0 ? t.narrow(0, 0, t.size(0) - 1).contiguous() : t;
-    case 7: what = "empty"; return t.dim() > 0 ? t.narrow(0, 0, 0).contiguous() : t.reshape({0});
+    case 7: what = "empty"; return t.dim() > 0 ? t.narrow(0, 0, 0).contiguous() : torch::empty({0}, t.options());
     case 8:
       what = "last two dimensions swapped";
       return t.dim() >= 2 ? t.transpose(-1, -2).contiguous() : t;
@@ -307,9 +312,15 @@ struct Target {
 struct Fixture {
   fs::path dir;
   std::vector<Target> targets;
+  const Target* find(const std::string& name) const {
+    for (const auto& t : targets)
+      if (t.name == name) return &t;
+    return nullptr;
+  }
 };
 
-const Fixture& fixture() {
+// Meshes, models, poses, configs, imports and (with Embree) a scan dataset.
+const Fixture& scan_fixture() {
   static const Fixture f = [] {
     Fixture f;
     f.dir = testing::temp_dir("input_fuzz");
@@ -406,25 +417,25 @@ Frame Time: 0.0333333
     f.targets.push_back({"poses", seeds / "poses.npz", in("poses.npz"), Kind::Npz, [p = in("poses.npz"), J, names] {
                            PoseSet::load(p.string()).validate(p.string(), J, names);
                          }});
-    f.targets.push_back({"binary PLY", seeds / "mesh.ply", in("mesh.ply"), Kind::Binary,
+    f.targets.push_back({"binary_ply", seeds / "mesh.ply", in("mesh.ply"), Kind::Binary,
                          [p = in("mesh.ply")] { io::read_mesh(p.string()); }});
-    f.targets.push_back({"ASCII PLY", seeds / "ascii.ply", in("ascii.ply"), Kind::Text,
+    f.targets.push_back({"ascii_ply", seeds / "ascii.ply", in("ascii.ply"), Kind::Text,
                          [p = in("ascii.ply")] { io::read_mesh(p.string()); }});
-    f.targets.push_back({"OBJ", seeds / "mesh.obj", in("mesh.obj"), Kind::Text,
+    f.targets.push_back({"obj", seeds / "mesh.obj", in("mesh.obj"), Kind::Text,
                          [p = in("mesh.obj")] { io::read_mesh(p.string()); }});
     f.targets.push_back({"config", seeds / "config.json", in("config.json"), Kind::Json,
                          [p = in("config.json")] { TrainConfig::load(p.string(), TrainConfig{}).validate(); }});
     f.targets.push_back({"glb", seeds / "rig.glb", in("rig.glb"), Kind::Binary,
                          [p = in("rig.glb")] { import_gltf(p.string()); }});
-    f.targets.push_back({"glTF JSON", seeds / "rig.gltf", in("rig.gltf"), Kind::Json,
+    f.targets.push_back({"gltf_json", seeds / "rig.gltf", in("rig.gltf"), Kind::Json,
                          [p = in("rig.gltf")] { import_gltf(p.string()); }});
     const auto skeleton = model.skeleton();
-    f.targets.push_back({"BVH", seeds / "walk.bvh", in("walk.bvh"), Kind::Text,
+    f.targets.push_back({"bvh", seeds / "walk.bvh", in("walk.bvh"), Kind::Text,
                          [p = in("walk.bvh"), skeleton] { import_bvh(p.string(), skeleton); }});
-    f.targets.push_back({"AMASS", seeds / "amass.npz", in("amass.npz"), Kind::Npz,
+    f.targets.push_back({"amass", seeds / "amass.npz", in("amass.npz"), Kind::Npz,
                          [p = in("amass.npz"), skeleton] { import_amass(p.string(), skeleton); }});
     if (have_dataset) {
-      f.targets.push_back({"dataset frame", seeds / "frame.npz", in("frame.npz"), Kind::Npz,
+      f.targets.push_back({"dataset_frame", seeds / "frame.npz", in("frame.npz"), Kind::Npz,
                            [p = in("frame.npz")] { DatasetFrame::load(p.string()); }});
       f.targets.push_back({"manifest", seeds / "manifest.json", data / "manifest.json", Kind::Json,
                            [d = data] { Dataset::load(d.string(), "train"); }});
@@ -434,17 +445,89 @@ Frame Time: 0.0333333
   return f;
 }
 
-class InputFuzz : public ::testing::TestWithParam<int> {};
+// An image dataset (cameras, character, poses, manifest, images, masks) and an
+// avatar run trained for one step (its avatar.json), built only by the
+// processes that fuzz them.
+const Fixture& image_fixture() {
+  static const Fixture f = [] {
+    Fixture f;
+    f.dir = testing::temp_dir("input_fuzz_images");
+    const auto seeds = f.dir / "seeds";
+    fs::create_directories(seeds);
+    const auto data = (f.dir / "data").string();
+    fs::copy(testing::tiny_image_dataset().dir, data, fs::copy_options::recursive);
+    const auto train = fs::path(data) / "train";
+    AvatarTrainOptions training;
+    training.data_dir = data;
+    training.out_dir = (f.dir / "run").string();
+    training.avatar.field.encoding.levels = 4;
+    training.avatar.field.encoding.log2_table_size = 10;
+    training.avatar.field.hidden_dim = 16;
+    training.avatar.skinning_grid_resolution = 16;
+    training.avatar.canonical_grid_resolution = 16;
+    training.avatar.posed_grid_resolution = 16;
+    training.steps = 1;
+    training.rays_per_step = 64;
+    training.progress = false;
+    train_avatar(training);
+    // Each target reads the file it mutates in place; its seed is a copy.
+    const auto in_place = [&](const std::string& name, const fs::path& file, Kind kind, std::function<void()> read) {
+      const auto seed = seeds / (name + file.extension().string());
+      fs::copy_file(file, seed);
+      f.targets.push_back({name, seed, file, kind, std::move(read)});
+    };
+    const auto load_all_splits = [data] {
+      const ImageDataset dataset(data);
+      for (const auto& split : dataset.split_names()) dataset.load_split(split);
+    };
+    const auto load_train = [data] { ImageDataset(data).load_split("train"); };
+    in_place("image_cameras", train / "cameras.npz", Kind::Npz, [p = train / "cameras.npz"] { load_cameras(p.string(), -1); });
+    in_place("image_character", fs::path(data) / "canonical.npz", Kind::Npz, load_train);
+    in_place("image_poses", train / "poses.npz", Kind::Npz, load_train);
+    in_place("image_manifest", fs::path(data) / "manifest.json", Kind::Json, load_all_splits);
+    in_place("image_png", train / "images" / "image_0000.png", Kind::Binary, load_train);
+    in_place("image_mask_png", train / "masks" / "mask_0000.png", Kind::Binary, load_train);
+    in_place("avatar_run", fs::path(training.out_dir) / "avatar.json", Kind::Json,
+             [run = training.out_dir] { TrainedAvatar::load(run); });
+    return f;
+  }();
+  return f;
+}
+
+const std::vector<std::string>& target_names() {
+  static const std::vector<std::string> names = {
+      "model", "poses", "binary_ply", "ascii_ply", "obj", "config", "glb", "gltf_json", "bvh", "amass",
+      "dataset_frame", "manifest", "image_cameras", "image_character", "image_poses", "image_manifest",
+      "image_png", "image_mask_png", "avatar_run"};
+  return names;
+}
+
+class InputFuzz : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(InputFuzz, MutatedInputsAreAcceptedOrRejectedWithAnFskinError) {
-  const auto& f = fixture();
-  const size_t index = static_cast<size_t>(GetParam());
-  if (index >= f.targets.size()) GTEST_SKIP() << "built without Embree: no dataset to mutate";
-  const auto& target = f.targets[index];
+  const std::string& name = GetParam();
+  const bool image = name.rfind("image_", 0) == 0 || name.rfind("avatar_", 0) == 0;
+  const Fixture& f = image ? image_fixture() : scan_fixture();
+  const Target* found = f.find(name);
+  if (!found) GTEST_SKIP() << "built without Embree: no dataset to mutate";
+  const auto& target = *found;
+  const size_t index = static_cast<size_t>(std::find(target_names().begin(), target_names().end(), name) -
+                                           target_names().begin());
   const int64_t cases = env_int("FSKIN_FUZZ_CASES", 250);
   const bool verbose = env_int("FSKIN_FUZZ_VERBOSE", 0) != 0;
   Random rng(static_cast<uint64_t>(env_int("FSKIN_FUZZ_SEED", 1)) * 1000003u + index);
   const std::string seed_bytes = slurp(target.seed);
+  // The unmutated file must be accepted, or every case is rejected for the
+  // wrong reason and the target tests nothing.
+  spit(target.path, seed_bytes);
+  // Targets mutate files of a shared dataset in place: put the seed back
+  // however this test ends, or the targets after it read a damaged dataset.
+  struct Restore {
+    const Target& target;
+    const std::string& bytes;
+    ~Restore() { spit(target.path, bytes); }
+  } restore{target, seed_bytes};
+  ASSERT_NO_THROW(target.read()) << target.name << ": the unmutated seed file is rejected";
   int64_t accepted = 0, rejected = 0;
   std::vector<std::string> internal;
   double slowest = 0;
@@ -476,7 +559,6 @@ TEST_P(InputFuzz, MutatedInputsAreAcceptedOrRejectedWithAnFskinError) {
     }
     slowest = std::max(slowest, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   }
-  spit(target.path, seed_bytes);  // the manifest target mutates the dataset in place
   std::string examples;
   for (size_t i = 0; i < internal.size() && i < 8; ++i) examples += "\n  " + internal[i];
   EXPECT_TRUE(internal.empty()) << target.name << ": " << internal.size() << " of " << cases
@@ -487,13 +569,8 @@ TEST_P(InputFuzz, MutatedInputsAreAcceptedOrRejectedWithAnFskinError) {
               static_cast<long long>(rejected), internal.size(), slowest);
 }
 
-std::string target_name(const ::testing::TestParamInfo<int>& info) {
-  static const char* names[] = {"model", "poses", "binary_ply", "ascii_ply", "obj", "config",
-                                "glb", "gltf_json", "bvh", "amass", "dataset_frame", "manifest"};
-  return names[info.param];
-}
-
-INSTANTIATE_TEST_SUITE_P(Targets, InputFuzz, ::testing::Range(0, 12), target_name);
+INSTANTIATE_TEST_SUITE_P(Targets, InputFuzz, ::testing::ValuesIn(target_names()),
+                         [](const ::testing::TestParamInfo<std::string>& info) { return info.param; });
 
 }  // namespace
 }  // namespace fskin

@@ -4,12 +4,14 @@
 #include <torch/torch.h>
 
 #include <cmath>
+#include <nlohmann/json.hpp>
 
 #include "fskin/radiance/avatar_evaluation.h"
 #include "fskin/radiance/avatar_mesh.h"
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/radiance/image_metrics.h"
 #include "fskin/skeleton/lbs.h"
+#include "fskin/util/atomic_file.h"
 #include "test_util.h"
 #include "tiny_image_dataset.h"
 
@@ -176,6 +178,24 @@ TEST(AvatarTraining, RejectsBadOptionsAndRuns) {
   options.background = "green";
   testing::expect_error([&] { options.validate(); }, {"background", "green"});
   testing::expect_error([] { TrainedAvatar::load("/nonexistent/run"); }, {"/nonexistent/run", "avatar.json"});
+}
+
+TEST(AvatarTraining, DamagedRunSettingsAreNamed) {
+  auto options = tiny_training("avatar_damaged", 1, 64);
+  train_avatar(options);
+  const auto config = (fs::path(options.out_dir) / "avatar.json").string();
+  const std::string text = read_file(config);
+  write_file_atomically(config, text.substr(0, text.size() / 2));  // cut by a crash of another program
+  testing::expect_error([&] { TrainedAvatar::load(options.out_dir); }, {config, "parse"});
+  auto j = nlohmann::json::parse(text);
+  j["encoding"]["levels"] = 0;
+  write_file_atomically(config, j.dump());
+  testing::expect_error([&] { TrainedAvatar::load(options.out_dir); }, {config, "levels"});
+  options.resume = true;
+  testing::expect_error([&] { train_avatar(options); }, {config, "levels"});
+  j["encoding"]["levels"] = "many";
+  write_file_atomically(config, j.dump());
+  testing::expect_error([&] { TrainedAvatar::load(options.out_dir); }, {config, "number"});
 }
 
 }  // namespace

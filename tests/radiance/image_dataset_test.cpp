@@ -4,6 +4,7 @@
 #include <torch/torch.h>
 
 #include <filesystem>
+#include <nlohmann/json.hpp>
 
 #include "fskin/io/npz.h"
 #include "fskin/radiance/surface_texture.h"
@@ -124,6 +125,46 @@ TEST(ImageDataset, BadFilesAreNamed) {
   testing::expect_error([&] { data.load_split("novel_pose"); }, {"mask_0000.png"});
   testing::expect_error([&] { data.load_split("test"); }, {"no split 'test'"});
   testing::expect_error([&] { ImageDataset((dir / "nothing").string()); }, {"manifest.json", "missing"});
+}
+
+TEST(ImageDataset, MalformedCamerasCharactersAndSplitsAreNamed) {
+  const auto& tiny = testing::tiny_image_dataset();
+  const auto dir = testing::temp_dir("image_dataset_malformed");
+  fs::copy(tiny.dir, dir, fs::copy_options::recursive);
+  const auto rewrite = [](const fs::path& path, const std::string& key, const torch::Tensor& value) {
+    const io::NpzReader in(path.string());
+    io::NpzWriter out;
+    for (const auto& k : in.keys()) {
+      if (k == key) out.add(k, value);
+      else if (k == "joint_names") out.add_strings(k, in.strings(k));
+      else out.add(k, in.tensor(k));
+    }
+    out.save(path.string());
+  };
+  const auto cameras = dir / "train" / "cameras.npz";
+  rewrite(cameras, "intrinsic", torch::eye(2, torch::kFloat64));
+  testing::expect_error([&] { load_cameras(cameras.string(), -1); }, {cameras.string(), "intrinsic", "[2, 2]"});
+  rewrite(cameras, "intrinsic", torch::eye(3, torch::kFloat64));
+  rewrite(cameras, "width", torch::tensor({1e30}));
+  testing::expect_error([&] { load_cameras(cameras.string(), -1); }, {cameras.string(), "1..16384"});
+
+  const auto canonical = dir / "canonical.npz";
+  const auto parents = io::NpzReader(canonical.string()).tensor("parents").clone();
+  auto cycle = parents.clone();
+  cycle[1] = 2;  // joint 1's parent is a later joint
+  rewrite(canonical, "parents", cycle);
+  testing::expect_error([&] { ImageDataset{dir.string()}; }, {canonical.string(), "joint 1 has parent 2"});
+  rewrite(canonical, "parents", parents);
+  rewrite(canonical, "joints", io::NpzReader(canonical.string()).tensor("joints") * 1e30);
+  testing::expect_error([&] { ImageDataset{dir.string()}; }, {canonical.string(), "joints", "implausible"});
+  fs::copy_file(tiny.dir + "/canonical.npz", canonical, fs::copy_options::overwrite_existing);
+
+  const auto manifest_path = dir / "manifest.json";
+  auto manifest = nlohmann::json::parse(read_file(manifest_path.string()));
+  manifest["splits"].push_back("../../elsewhere");
+  write_file_atomically(manifest_path.string(), manifest.dump());
+  testing::expect_error([&] { ImageDataset{dir.string()}; },
+                        {manifest_path.string(), "'../../elsewhere'", "not a directory name inside the dataset"});
 }
 
 TEST(ImageDataset, MonocularHasOneCameraAndATurningSubject) {

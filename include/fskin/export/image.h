@@ -30,8 +30,13 @@ void write_png(const std::string& path, const Image& image);
 // Writes width x height 8-bit grey values (row-major, top row first) as a PNG.
 void write_png_gray(const std::string& path, int width, int height, const std::vector<uint8_t>& gray);
 
+// The largest image side fskin reads (pixels): beyond it a header is corrupt
+// (16384 x 16384 RGB is already 768 MiB).
+constexpr int kMaxImageSide = 16384;
+
 // Reads an 8-bit PNG (grey, grey + alpha, RGB or RGBA) as RGB, alpha dropped;
-// throws fskin::Error naming `path` when it is missing or not such a PNG.
+// throws fskin::Error naming `path` when it is missing, not such a PNG, or
+// larger than kMaxImageSide on a side.
 Image read_png(const std::string& path);
 // Reads a PNG as 8-bit grey values (the first channel of a colour PNG);
 // sets width and height.

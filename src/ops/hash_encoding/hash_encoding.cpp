@@ -32,11 +32,15 @@ void HashEncodingOptions::validate() const {
               "hash encoding: features_per_level {} must be in 1..8", features_per_level);
   FSKIN_CHECK(log2_table_size >= 4 && log2_table_size <= 24, "hash encoding: log2_table_size {} must be in 4..24",
               log2_table_size);
-  FSKIN_CHECK(base_resolution >= 1, "hash encoding: base_resolution {} must be >= 1", base_resolution);
+  constexpr int64_t kMaxResolution = int64_t{1} << 20;
+  FSKIN_CHECK(base_resolution >= 1 && base_resolution <= kMaxResolution,
+              "hash encoding: base_resolution {} must be in 1..2^20", base_resolution);
   FSKIN_CHECK(std::isfinite(per_level_scale) && per_level_scale >= 1,
               "hash encoding: per_level_scale {} must be >= 1", per_level_scale);
-  FSKIN_CHECK(resolution(levels - 1) <= (int64_t{1} << 20), "hash encoding: finest resolution {} is above 2^20",
-              resolution(levels - 1));
+  // In floating point first: the integer resolution of a huge scale would overflow.
+  const double finest = static_cast<double>(base_resolution) * std::pow(per_level_scale, levels - 1);
+  FSKIN_CHECK(finest <= static_cast<double>(kMaxResolution), "hash encoding: finest resolution {:g} is above 2^20",
+              finest);
 }
 
 namespace {
