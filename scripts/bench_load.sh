@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Training throughput on a shared machine: fskin train alone, two fskin
-# trainings side by side, and one next to busy non-fskin processes (one
-# busy loop per core, as a parallel compiler would be). Prints steps/s (steps
+# trainings side by side, one next to busy non-fskin processes (one busy loop
+# per core) and one next to a parallel compiler (one loop of `c++ -O2`
+# compiles per core, as `make -j$(nproc)` would be). Prints steps/s (steps
 # over their summed time in log.jsonl, the first 20 steps left out: a mean, as
 # the slow steps of a loaded run are the point) and each case's ratio to solo.
 #
@@ -10,7 +11,8 @@
 #   DATASET  a dataset directory (default demo-output/data, from `make demo`)
 #   STEPS    training steps per run (default 150)
 # Extra environment for every fskin run can be given in FSKIN_ENV, e.g.
-# FSKIN_ENV="GOMP_SPINCOUNT=300000" to compare settings.
+# FSKIN_ENV="GOMP_SPINCOUNT=300000", and global fskin options in FSKIN_ARGS,
+# e.g. FSKIN_ARGS="--threads 2" (a fixed thread count), to compare settings.
 set -euo pipefail
 FSKIN=${1:-build/fskin}
 DATA=${2:-demo-output/data}
@@ -21,13 +23,15 @@ WORK=$(mktemp -d /tmp/fskin-load.XXXXXX)
 trap 'kill $(jobs -p) 2>/dev/null || true; rm -rf "$WORK"' EXIT
 
 train() {  # train RUN_NAME: one training run, quiet
-  env ${FSKIN_ENV:-} "$FSKIN" train --data "$DATA" --steps "$STEPS" --out "$WORK/$1" --quiet >/dev/null
+  env ${FSKIN_ENV:-} "$FSKIN" ${FSKIN_ARGS:-} train --data "$DATA" --steps "$STEPS" --out "$WORK/$1" --quiet >/dev/null
 }
 steps_per_s() {  # steps_per_s RUN_NAME
   /usr/bin/python3 - "$WORK/$1/log.jsonl" <<'PY'
 import json, sys
-s = [json.loads(l)["seconds"] for l in open(sys.argv[1])][20:]
-print(f"{len(s) / sum(s):.3f}")
+rows = [json.loads(l) for l in open(sys.argv[1])][20:]
+s = [r["seconds"] for r in rows]
+threads = [r.get("threads", 0) for r in rows]
+print(f"{len(s) / sum(s):.3f} (threads {sum(threads) / len(threads):.2f})")
 PY
 }
 
@@ -50,11 +54,39 @@ kill "${hogs[@]}" 2>/dev/null || true
 wait "${hogs[@]}" 2>/dev/null || true
 busy=$(steps_per_s busy)
 
-ratio() { /usr/bin/python3 -c "print(f'{$1 / $2:.2f}')"; }
-echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); ${FSKIN_ENV:-no extra environment}"
+# A C++ translation unit that keeps an optimising compiler busy for seconds.
+cat > "$WORK/unit.cpp" <<'CPP'
+#include <algorithm>
+#include <map>
+#include <regex>
+#include <string>
+#include <vector>
+std::vector<std::string> words(const std::string& s) {
+  std::regex word("[a-z]+");
+  std::vector<std::string> out;
+  for (auto it = std::sregex_iterator(s.begin(), s.end(), word); it != std::sregex_iterator(); ++it) out.push_back(it->str());
+  std::map<std::string, int> count;
+  for (const auto& w : out) ++count[w];
+  std::sort(out.begin(), out.end(), [&](const auto& a, const auto& b) { return count[a] > count[b]; });
+  return out;
+}
+CPP
+compilers=()
+for i in $(seq "$(nproc)"); do
+  # Bounded like the busy loops; each compile writes its own object.
+  timeout 900 bash -c "while :; do c++ -O2 -c '$WORK/unit.cpp' -o '$WORK/unit_$i.o'; done" & compilers+=($!)
+done
+train compiled
+kill "${compilers[@]}" 2>/dev/null || true
+wait "${compilers[@]}" 2>/dev/null || true
+compiled=$(steps_per_s compiled)
+
+ratio() { /usr/bin/python3 -c "print(f'{${1%% *} / ${2%% *}:.2f}')"; }
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); ${FSKIN_ENV:-no extra environment}; ${FSKIN_ARGS:-no global options}"
 echo "| case | steps/s | vs solo |"
 echo "|---|---:|---:|"
 echo "| solo | $solo | 1.00 |"
 echo "| two fskin trainings, first | $duo_a | $(ratio "$duo_a" "$solo") |"
 echo "| two fskin trainings, second | $duo_b | $(ratio "$duo_b" "$solo") |"
 echo "| next to $(nproc) busy loops | $busy | $(ratio "$busy" "$solo") |"
+echo "| next to $(nproc) compiler loops (c++ -O2) | $compiled | $(ratio "$compiled" "$solo") |"

@@ -3,13 +3,15 @@
 #include <ATen/Context.h>
 #include <ATen/Parallel.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <thread>
 
 #include "cli/commands.h"
 #include "fskin/core/error.h"
-#include "fskin/util/runtime_restart.h"
 #include "fskin/util/blas_threads.h"
+#include "fskin/util/free_cores.h"
+#include "fskin/util/runtime_restart.h"
 #include "fskin/version.h"
 
 int main(int argc, char** argv) {
@@ -19,9 +21,13 @@ int main(int argc, char** argv) {
   CLI::App app{"fskin: differentiable forward skinning (SNARF, Fast-SNARF, INS)", "fskin"};
   app.set_version_flag("--version", std::string("fskin ") + FSKIN_VERSION);
   app.require_subcommand(1);
-  int threads = static_cast<int>(std::thread::hardware_concurrency());
-  app.add_option("--threads", threads, "CPU threads for LibTorch and fskin kernels")
-      ->check(CLI::PositiveNumber);
+  const int cores = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  int threads = cores;
+  auto* threads_option =
+      app.add_option("--threads", threads,
+                     "CPU threads for LibTorch and fskin kernels, fixed (default: one per core, fewer while other "
+                     "processes keep cores busy)")
+          ->check(CLI::PositiveNumber);
   fskin::cli::register_animate(app);
   fskin::cli::register_avatar(app);
   fskin::cli::register_bench(app);
@@ -37,7 +43,10 @@ int main(int argc, char** argv) {
   fskin::cli::register_render(app);
   fskin::cli::register_report(app);
   // Subcommand callbacks run inside parse(), after the global options are read.
-  app.parse_complete_callback([&] { at::set_num_threads(std::max(1, threads)); });
+  app.parse_complete_callback([&] {
+    if (threads_option->count() > 0) at::set_num_threads(threads);
+    else fskin::follow_free_cores_up_to(cores);
+  });
   // Saturated softmax / Softplus(100) layers produce subnormal floats, which
   // x86 processes up to 100x slower; they carry no useful signal here.
   at::globalContext().setFlushDenormal(true);

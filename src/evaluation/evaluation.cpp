@@ -7,6 +7,7 @@
 #include "fskin/core/device.h"
 #include "fskin/core/error.h"
 #include "fskin/evaluation/iou.h"
+#include "fskin/util/free_cores.h"
 #include "fskin/util/progress.h"
 
 namespace fskin {
@@ -22,6 +23,7 @@ EvaluationResult evaluate(OccupancyModel& model, const std::vector<OccupancyFram
   result.split = split;
   ProgressBar bar("eval " + split, static_cast<int64_t>(frames.size()), progress);
   for (size_t f = 0; f < frames.size(); ++f) {
+    follow_free_cores();
     const auto& frame = frames[f];
     FSKIN_CHECK(frame.points.dim() == 2 && frame.points.size(1) == 3 &&
                     frame.occupancy.size(0) == frame.points.size(0) && frame.num_uniform >= 0 &&

@@ -15,6 +15,7 @@
 #include "fskin/training/checkpoint.h"
 #include "fskin/training/trainer.h"
 #include "fskin/util/atomic_file.h"
+#include "fskin/util/free_cores.h"
 #include "fskin/util/progress.h"
 #include "fskin/version.h"
 
@@ -231,6 +232,7 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
       summary.stopped = true;
       break;
     }
+    follow_free_cores();
     const auto step_start = std::chrono::steady_clock::now();
     // Seeded per step: a resumed run draws what an uninterrupted one would.
     torch::manual_seed(options.seed * 1000003 + static_cast<uint64_t>(step));
@@ -294,7 +296,8 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
                                    {"psnr", psnr_sum / logged},
                                    {"samples_per_ray", static_cast<double>(samples) / options.rays_per_step},
                                    {"canonical_occupied", avatar->canonical_grid().occupied_fraction()},
-                                   {"seconds", seconds}};
+                                   {"seconds", seconds},
+                                   {"threads", at::get_num_threads()}};
       log << line.dump() << "\n" << std::flush;
       summary.final_loss = loss_sum / logged;
       summary.final_psnr = psnr_sum / logged;

@@ -18,6 +18,7 @@
 #include "fskin/losses/skinning_prior.h"
 #include "fskin/training/checkpoint.h"
 #include "fskin/util/atomic_file.h"
+#include "fskin/util/free_cores.h"
 #include "fskin/util/progress.h"
 
 namespace fskin {
@@ -244,6 +245,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
       result.stopped = true;
       break;
     }
+    follow_free_cores();
     const auto step_start = std::chrono::steady_clock::now();
     const uint64_t seed = step_seed(config.seed, step);
     // Models may draw from the default generator during a step (the PINs'
@@ -305,6 +307,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
                            {"batch_iou", iou},
                            {"lr", config.learning_rate * rate_scale},
                            {"seconds", seconds},
+                           {"threads", at::get_num_threads()},
                            {"points_per_s", static_cast<double>(batch.points.size(0) * batch.points.size(1)) / seconds},
                            {"deformer_s", prediction.deformer_seconds},
                            {"valid_per_point", prediction.deformer.mean_valid}};

@@ -1,0 +1,75 @@
+#include "fskin/util/free_cores.h"
+
+#include <ATen/Parallel.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+namespace fskin {
+namespace {
+
+TEST(FreeCores, ThreadsFollowTheFreeCoresWithABandAgainstFlapping) {
+  // Two cores, a neighbour using half of one or less: keep both threads.
+  EXPECT_EQ(threads_for_free_cores(2.0, 2, 2), 2);
+  EXPECT_EQ(threads_for_free_cores(1.55, 2, 2), 2);
+  // A second training or a compiler taking a core: one thread.
+  EXPECT_EQ(threads_for_free_cores(1.0, 2, 2), 1);
+  EXPECT_EQ(threads_for_free_cores(1.45, 2, 2), 1);
+  // Inside the band from one thread: stay; well above it: back to two.
+  EXPECT_EQ(threads_for_free_cores(1.7, 1, 2), 1);
+  EXPECT_EQ(threads_for_free_cores(1.8, 1, 2), 2);
+  // Never below one, never above the maximum, whatever the estimate.
+  EXPECT_EQ(threads_for_free_cores(0.0, 2, 2), 1);
+  EXPECT_EQ(threads_for_free_cores(-3.0, 8, 8), 1);
+  EXPECT_EQ(threads_for_free_cores(64.0, 1, 8), 8);
+  EXPECT_EQ(threads_for_free_cores(5.0, 12, 8), 5);
+  // Many cores: down to the nearest count, up to the count below free + 0.25.
+  EXPECT_EQ(threads_for_free_cores(5.6, 8, 8), 6);
+  EXPECT_EQ(threads_for_free_cores(6.9, 4, 8), 7);
+  EXPECT_EQ(threads_for_free_cores(4.5, 4, 8), 4);
+  // One core: nothing to choose.
+  EXPECT_EQ(threads_for_free_cores(0.2, 1, 1), 1);
+}
+
+TEST(FreeCores, OthersAreTheMachinesBusyTimeLessOurOwn) {
+  CpuTimes before{100.0, 500.0, 20.0, 4};
+  CpuTimes after{102.0, 505.0, 22.0, 4};  // 5 core-seconds busy in 2 s, 2 of them ours
+  EXPECT_DOUBLE_EQ(cores_used_by_others(before, after), 1.5);
+  after.self_s = 26.0;  // clock granularity can make ours exceed the machine's
+  EXPECT_DOUBLE_EQ(cores_used_by_others(before, after), 0.0);
+  EXPECT_DOUBLE_EQ(cores_used_by_others(after, after), 0.0);
+}
+
+TEST(FreeCores, ReadsThisMachineAndCountsOurOwnWorkAsOurs) {
+  const auto before = read_cpu_times();
+  ASSERT_TRUE(before.has_value()) << "/proc/stat unreadable";
+  EXPECT_GE(before->cores, 1);
+  const auto start = std::chrono::steady_clock::now();
+  volatile double x = 1;
+  while (std::chrono::steady_clock::now() - start < std::chrono::milliseconds(400)) x = x * 1.0000001 + 1e-9;
+  const auto after = read_cpu_times();
+  ASSERT_TRUE(after.has_value());
+  const double ours = after->self_s - before->self_s;
+  EXPECT_GT(ours, 0.25);  // the spin above, on this thread
+  // The machine's busy time includes ours (tick accounting: 0.1 s slack).
+  EXPECT_GE(after->machine_busy_s - before->machine_busy_s, ours - 0.1);
+  EXPECT_GT(after->wall_s - before->wall_s, 0.39);
+}
+
+TEST(FreeCores, EnablingSetsTheMaximumAndFollowingIsANoOpWhenOff) {
+  const int before = at::get_num_threads();
+  follow_free_cores_up_to(2);
+  EXPECT_TRUE(following_free_cores());
+  EXPECT_EQ(at::get_num_threads(), 2);
+  stop_following_free_cores();
+  EXPECT_FALSE(following_free_cores());
+  at::set_num_threads(1);
+  follow_free_cores();  // off: leaves the count alone
+  EXPECT_EQ(at::get_num_threads(), 1);
+  follow_free_cores_up_to(1);  // one thread: nothing to follow
+  EXPECT_FALSE(following_free_cores());
+  at::set_num_threads(before);
+}
+
+}  // namespace
+}  // namespace fskin
