@@ -25,6 +25,15 @@ trap 'kill $(jobs -p) 2>/dev/null || true; rm -rf "$WORK"' EXIT
 train() {  # train RUN_NAME: one training run, quiet
   env ${FSKIN_ENV:-} "$FSKIN" ${FSKIN_ARGS:-} train --data "$DATA" --steps "$STEPS" --out "$WORK/$1" --quiet >/dev/null
 }
+train_next_to() {  # train_next_to RUN_NAME LOOP: train while one copy of LOOP runs per core
+  local others=() i
+  for i in $(seq "$(nproc)"); do
+    i=$i timeout 900 bash -c "$2" & others+=($!)
+  done
+  train "$1"
+  kill "${others[@]}" 2>/dev/null || true
+  wait "${others[@]}" 2>/dev/null || true
+}
 steps_per_s() {  # steps_per_s RUN_NAME
   /usr/bin/python3 - "$WORK/$1/log.jsonl" <<'PY'
 import json, sys
@@ -44,14 +53,8 @@ wait $a $b
 duo_a=$(steps_per_s duo_a)
 duo_b=$(steps_per_s duo_b)
 
-hogs=()
-for _ in $(seq "$(nproc)"); do
-  # A bounded busy loop (stops by itself after 15 minutes at the latest).
-  timeout 900 bash -c 'while :; do :; done' & hogs+=($!)
-done
-train busy
-kill "${hogs[@]}" 2>/dev/null || true
-wait "${hogs[@]}" 2>/dev/null || true
+# A bounded busy loop per core (each stops by itself after 15 minutes at the latest).
+train_next_to busy 'while :; do :; done'
 busy=$(steps_per_s busy)
 
 # A C++ translation unit that keeps an optimising compiler busy for seconds.
@@ -71,14 +74,8 @@ std::vector<std::string> words(const std::string& s) {
   return out;
 }
 CPP
-compilers=()
-for i in $(seq "$(nproc)"); do
-  # Bounded like the busy loops; each compile writes its own object.
-  timeout 900 bash -c "while :; do c++ -O2 -c '$WORK/unit.cpp' -o '$WORK/unit_$i.o'; done" & compilers+=($!)
-done
-train compiled
-kill "${compilers[@]}" 2>/dev/null || true
-wait "${compilers[@]}" 2>/dev/null || true
+# One compile loop per core, bounded like the busy loops; each writes its own object.
+train_next_to compiled "while :; do c++ -O2 -c '$WORK/unit.cpp' -o \"$WORK/unit_\$i.o\"; done"
 compiled=$(steps_per_s compiled)
 
 ratio() { /usr/bin/python3 -c "print(f'{${1%% *} / ${2%% *}:.2f}')"; }

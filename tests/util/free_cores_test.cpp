@@ -9,26 +9,30 @@ namespace fskin {
 namespace {
 
 TEST(FreeCores, ThreadsFollowTheFreeCoresWithABandAgainstFlapping) {
-  // Two cores, a neighbour using half of one or less: keep both threads.
-  EXPECT_EQ(threads_for_free_cores(2.0, 2, 2), 2);
-  EXPECT_EQ(threads_for_free_cores(1.55, 2, 2), 2);
-  // A second training or a compiler taking a core: one thread.
-  EXPECT_EQ(threads_for_free_cores(1.0, 2, 2), 1);
-  EXPECT_EQ(threads_for_free_cores(1.45, 2, 2), 1);
-  // Inside the band from one thread: stay; well above it: back to two.
-  EXPECT_EQ(threads_for_free_cores(1.7, 1, 2), 1);
-  EXPECT_EQ(threads_for_free_cores(1.8, 1, 2), 2);
-  // Never below one, never above the maximum, whatever the estimate.
-  EXPECT_EQ(threads_for_free_cores(0.0, 2, 2), 1);
-  EXPECT_EQ(threads_for_free_cores(-3.0, 8, 8), 1);
-  EXPECT_EQ(threads_for_free_cores(64.0, 1, 8), 8);
-  EXPECT_EQ(threads_for_free_cores(5.0, 12, 8), 5);
-  // Many cores: down to the nearest count, up to the count below free + 0.25.
-  EXPECT_EQ(threads_for_free_cores(5.6, 8, 8), 6);
-  EXPECT_EQ(threads_for_free_cores(6.9, 4, 8), 7);
-  EXPECT_EQ(threads_for_free_cores(4.5, 4, 8), 4);
-  // One core: nothing to choose.
-  EXPECT_EQ(threads_for_free_cores(0.2, 1, 1), 1);
+  struct Case {
+    double free_cores;
+    int current, max_threads, expected;
+    const char* why;
+  };
+  const Case cases[] = {
+      {2.0, 2, 2, 2, "two cores, nothing else running: keep both threads"},
+      {1.55, 2, 2, 2, "a neighbour using half a core or less: keep both"},
+      {1.0, 2, 2, 1, "a second training or a compiler taking a core: one thread"},
+      {1.45, 2, 2, 1, "just under the lower edge of the band: one thread"},
+      {1.7, 1, 2, 1, "inside the band from one thread: stay"},
+      {1.8, 1, 2, 2, "well above the band: back to two"},
+      {0.0, 2, 2, 1, "never below one"},
+      {-3.0, 8, 8, 1, "never below one, whatever the estimate"},
+      {64.0, 1, 8, 8, "never above the maximum"},
+      {5.0, 12, 8, 5, "more threads than free cores: down to the free count"},
+      {5.6, 8, 8, 6, "many cores: down to the nearest count"},
+      {6.9, 4, 8, 7, "many cores: up to the count below free + 0.25"},
+      {4.5, 4, 8, 4, "many cores: inside the band, stay"},
+      {0.2, 1, 1, 1, "one core: nothing to choose"},
+  };
+  for (const auto& c : cases)
+    EXPECT_EQ(threads_for_free_cores(c.free_cores, c.current, c.max_threads), c.expected)
+        << c.why << " (free " << c.free_cores << ", current " << c.current << ", max " << c.max_threads << ")";
 }
 
 TEST(FreeCores, OthersAreTheMachinesBusyTimeLessOurOwn) {
