@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <mutex>
@@ -22,6 +23,8 @@ struct Follower {
   bool enabled = false;
   int max_threads = 1;
   std::optional<CpuTimes> window_start;
+  int64_t iterations = 0;  // calls of follow_free_cores in this window
+  std::map<int, ThreadTiming> timings;
 };
 
 Follower& follower() {
@@ -78,12 +81,39 @@ int threads_for_free_cores(double free_cores, int current, int max_threads) {
   return std::clamp(threads, 1, max_threads);
 }
 
+int faster_thread_count(int proposed, const std::map<int, ThreadTiming>& timings, double others_now, double wall_now) {
+  const auto trusted = [&](int threads) -> const ThreadTiming* {
+    const auto it = timings.find(threads);
+    if (it == timings.end()) return nullptr;
+    const auto& t = it->second;
+    if (wall_now - t.wall_s > kThreadTimingMemorySeconds) return nullptr;
+    if (std::abs(t.others - others_now) >= kThreadTimingSameLoadCores) return nullptr;
+    return &t;
+  };
+  const ThreadTiming* proposal = trusted(proposed);
+  if (proposal == nullptr) return proposed;
+  int fastest = proposed;
+  double fastest_s = proposal->seconds_per_iteration * (1 - kThreadTimingTolerance);
+  for (const auto& [threads, timing] : timings) {
+    if (threads == proposed || trusted(threads) == nullptr) continue;
+    if (timing.seconds_per_iteration < fastest_s) {
+      fastest = threads;
+      fastest_s = timing.seconds_per_iteration;
+    }
+  }
+  return fastest;
+}
+
 void follow_free_cores_up_to(int max_threads) {
   auto& f = follower();
   const std::lock_guard<std::mutex> lock(f.mutex);
   f.max_threads = std::max(1, max_threads);
   f.enabled = f.max_threads > 1;
-  f.window_start = read_cpu_times();
+  // The first call opens the first window: the time before it (loading data)
+  // is no iteration's.
+  f.window_start.reset();
+  f.iterations = 0;
+  f.timings.clear();
   at::set_num_threads(f.max_threads);
 }
 
@@ -103,18 +133,23 @@ void follow_free_cores() {
   auto& f = follower();
   const std::lock_guard<std::mutex> lock(f.mutex);
   if (!f.enabled) return;
+  ++f.iterations;
   // The clock first: /proc/stat is read once per window, not per call.
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
   if (f.window_start && wall - f.window_start->wall_s < kFreeCoreWindowSeconds) return;
   const auto now = read_cpu_times();
   if (!now) return;
   if (f.window_start) {
-    const double free_cores = now->cores - cores_used_by_others(*f.window_start, *now);
+    const double others = cores_used_by_others(*f.window_start, *now);
     const int current = at::get_num_threads();
-    const int threads = threads_for_free_cores(free_cores, current, std::min(f.max_threads, now->cores));
+    f.timings[current] = {(now->wall_s - f.window_start->wall_s) / static_cast<double>(f.iterations), others,
+                          now->wall_s};
+    const int proposed = threads_for_free_cores(now->cores - others, current, std::min(f.max_threads, now->cores));
+    const int threads = faster_thread_count(proposed, f.timings, others, now->wall_s);
     if (threads != current) at::set_num_threads(threads);
   }
   f.window_start = now;
+  f.iterations = 0;
 }
 
 }  // namespace fskin

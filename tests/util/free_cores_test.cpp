@@ -35,6 +35,28 @@ TEST(FreeCores, ThreadsFollowTheFreeCoresWithABandAgainstFlapping) {
         << c.why << " (free " << c.free_cores << ", current " << c.current << ", max " << c.max_threads << ")";
 }
 
+TEST(FreeCores, AProposalMeasuredSlowerUnderTheSameLoadIsNotTaken) {
+  const double now = 100;
+  // Nothing measured at the proposal: try it.
+  EXPECT_EQ(faster_thread_count(1, {{2, {0.5, 1.0, now}}}, 1.0, now), 1);
+  // One thread measured faster than two (a training step next to a neighbour): one.
+  EXPECT_EQ(faster_thread_count(1, {{1, {0.3, 1.3, now}}, {2, {0.5, 1.0, now - 1}}}, 1.3, now), 1);
+  // Two threads measured faster (large parallel regions next to busy loops): stay at two.
+  EXPECT_EQ(faster_thread_count(1, {{1, {1.2, 1.3, now - 1}}, {2, {0.9, 1.0, now}}}, 1.0, now), 2);
+  // Within the tolerance the proposal wins: fewer threads are kinder to the neighbour.
+  EXPECT_EQ(faster_thread_count(1, {{1, {1.0, 1.3, now - 1}}, {2, {0.96, 1.0, now}}}, 1.0, now), 1);
+  // A timing older than the memory is not trusted: the proposal is tried again.
+  EXPECT_EQ(faster_thread_count(1, {{1, {1.2, 1.3, now - kThreadTimingMemorySeconds - 1}}, {2, {0.9, 1.0, now}}},
+                                1.0, now),
+            1);
+  // Nor one measured under another load (the neighbour has left since).
+  EXPECT_EQ(faster_thread_count(2, {{1, {0.3, 1.3, now}}, {2, {0.5, 1.0, now - 5}}}, 0.0, now), 2);
+  // The fastest of several trusted counts.
+  EXPECT_EQ(faster_thread_count(4, {{2, {0.9, 2, now}}, {3, {0.6, 2, now}}, {4, {0.8, 2, now}}, {6, {0.7, 2, now}}},
+                                2, now),
+            3);
+}
+
 TEST(FreeCores, OthersAreTheMachinesBusyTimeLessOurOwn) {
   CpuTimes before{100.0, 500.0, 20.0, 4};
   CpuTimes after{102.0, 505.0, 22.0, 4};  // 5 core-seconds busy in 2 s, 2 of them ours
