@@ -82,21 +82,16 @@ int threads_for_free_cores(double free_cores, int current, int max_threads) {
 }
 
 int faster_thread_count(int proposed, const std::map<int, ThreadTiming>& timings, double others_now, double wall_now) {
-  const auto trusted = [&](int threads) -> const ThreadTiming* {
-    const auto it = timings.find(threads);
-    if (it == timings.end()) return nullptr;
-    const auto& t = it->second;
-    if (wall_now - t.wall_s > kThreadTimingMemorySeconds) return nullptr;
-    if (std::abs(t.others - others_now) >= kThreadTimingSameLoadCores) return nullptr;
-    return &t;
+  const auto trusted = [&](const ThreadTiming& t) {
+    return wall_now - t.wall_s <= kThreadTimingMemorySeconds &&
+           std::abs(t.others - others_now) < kThreadTimingSameLoadCores;
   };
-  const ThreadTiming* proposal = trusted(proposed);
-  if (proposal == nullptr) return proposed;
+  const auto proposal = timings.find(proposed);
+  if (proposal == timings.end() || !trusted(proposal->second)) return proposed;
   int fastest = proposed;
-  double fastest_s = proposal->seconds_per_iteration * (1 - kThreadTimingTolerance);
+  double fastest_s = proposal->second.seconds_per_iteration * (1 - kThreadTimingTolerance);
   for (const auto& [threads, timing] : timings) {
-    if (threads == proposed || trusted(threads) == nullptr) continue;
-    if (timing.seconds_per_iteration < fastest_s) {
+    if (threads != proposed && trusted(timing) && timing.seconds_per_iteration < fastest_s) {
       fastest = threads;
       fastest_s = timing.seconds_per_iteration;
     }
