@@ -3,12 +3,15 @@
 // skeleton, motions inside the joint ranges of a pose file (--ranges-from).
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <iterator>
 #include <map>
 
 #include "cli/commands.h"
 #include "fskin/core/error.h"
 #include "fskin/body/body_model.h"
+#include "fskin/data/clip_selection.h"
 #include "fskin/data/pose_generators.h"
 #include "fskin/import/motion_import.h"
 
@@ -26,6 +29,7 @@ JointRanges ranges_from(const std::string& path, const std::string& model_path, 
 void register_poses(CLI::App& app) {
   struct Options {
     std::string model, out, ranges_from, input, name_map;
+    std::string train_selection, test_selection, train_out, test_out;
     int64_t sequences = 10, frames = 30, count = 50;
     uint64_t seed = 0;
   };
@@ -79,6 +83,51 @@ void register_poses(CLI::App& app) {
     std::printf("wrote %s: %lld out-of-distribution poses, each >= %.2f rad beyond the training "
                 "ranges\n",
                 opt->out.c_str(), static_cast<long long>(set.size()), smallest_excess);
+  });
+
+  auto* select = cmd->add_subcommand(
+      "select", "Pick clips and frame ranges out of a clips file into a training and a test pose file");
+  select->add_option("CLIPS", opt->input, "clips file .npz (from `fskin import --clips` or `fskin character --clips`)")
+      ->required();
+  select->add_option("--train", opt->train_selection,
+                     "clips for training: NAME[,NAME:FIRST-LAST,NAME:FIRST-...] (frames from 0 within each clip, "
+                     "inclusive)");
+  select->add_option("--out-train", opt->train_out, "pose file .npz the --train selection goes to");
+  select->add_option("--test", opt->test_selection, "clips for testing, as --train; must not share frames with it");
+  select->add_option("--out-test", opt->test_out, "pose file .npz the --test selection goes to");
+  select->callback([opt] {
+    FSKIN_CHECK(!opt->train_selection.empty() || !opt->test_selection.empty(),
+                "fskin poses select: give --train and/or --test");
+    FSKIN_CHECK(opt->train_selection.empty() == opt->train_out.empty(),
+                "fskin poses select: --train and --out-train go together");
+    FSKIN_CHECK(opt->test_selection.empty() == opt->test_out.empty(),
+                "fskin poses select: --test and --out-test go together");
+    const auto clips = PoseSet::load(opt->input);
+    std::vector<int64_t> train_frames;
+    if (!opt->train_selection.empty())
+      train_frames = selected_frames(clips, parse_clip_selection(opt->train_selection), opt->input);
+    if (!opt->test_selection.empty() && !train_frames.empty()) {
+      const auto test_frames = selected_frames(clips, parse_clip_selection(opt->test_selection), opt->input);
+      std::vector<int64_t> shared;
+      std::vector<int64_t> sorted_train = train_frames, sorted_test = test_frames;
+      std::sort(sorted_train.begin(), sorted_train.end());
+      std::sort(sorted_test.begin(), sorted_test.end());
+      std::set_intersection(sorted_train.begin(), sorted_train.end(), sorted_test.begin(), sorted_test.end(),
+                            std::back_inserter(shared));
+      FSKIN_CHECK(shared.empty(),
+                  "fskin poses select: --train '{}' and --test '{}' share {} frame(s) of {}; a test set must hold "
+                  "frames the training never sees",
+                  opt->train_selection, opt->test_selection, shared.size(), opt->input);
+    }
+    for (const auto& [selection, out] :
+         {std::pair{opt->train_selection, opt->train_out}, std::pair{opt->test_selection, opt->test_out}}) {
+      if (selection.empty()) continue;
+      const auto set = select_clips(clips, parse_clip_selection(selection), opt->input);
+      set.save(out);
+      std::string names;
+      for (const auto& name : set.clip_names) names += (names.empty() ? "" : ", ") + name;
+      std::printf("wrote %s: %lld poses (%s)\n", out.c_str(), static_cast<long long>(set.size()), names.c_str());
+    }
   });
 
   auto* import = cmd->add_subcommand(
