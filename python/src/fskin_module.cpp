@@ -271,8 +271,10 @@ class PyRun {
   // The canonical surface (pose None) or the surface in one pose: (vertices [V, 3], faces [F, 3]).
   std::tuple<torch::Tensor, torch::Tensor> mesh(const std::optional<torch::Tensor>& pose,
                                                 const std::optional<torch::Tensor>& trans, int64_t resolution,
-                                                int64_t initial, bool largest_component) {
-    const auto options = meshing_options(resolution, initial, largest_component);
+                                                int64_t initial, bool largest_component, int64_t surface_steps) {
+    auto options = meshing_options(resolution, initial, largest_component);
+    FSKIN_CHECK(surface_steps >= 0 && surface_steps <= 64, "Run.mesh: surface_steps {} must be in 0..64", surface_steps);
+    options.surface_steps = surface_steps;
     fskin::MeshingResult result;
     if (!pose) {
       result = fskin::mesh_canonical(*run_.model, run_.skeleton, run_.canonical_pose, options);
@@ -737,8 +739,10 @@ PYBIND11_MODULE(_fskin, m) {
            "dataset computes them")
       .def("mesh", &PyRun::mesh, py::arg("pose") = py::none(), py::arg("trans") = py::none(),
            py::arg("resolution") = 128, py::arg("initial") = 32, py::arg("largest_component") = false,
-           py::call_guard<py::gil_scoped_release>(),
-           "MISE surface of the canonical shape (pose None) or of one pose [J, 3]: (vertices [V, 3], faces [F, 3])")
+           py::arg("surface_steps") = fskin::PosedMeshingOptions{}.surface_steps, py::call_guard<py::gil_scoped_release>(),
+           "MISE surface of the canonical shape (pose None) or of one pose [J, 3]: (vertices [V, 3], faces [F, 3]); "
+           "surface_steps model evaluations per vertex put it on the learned surface (0: marching cubes' linear "
+           "interpolation, which leaves terraces)")
       .def("repose", &PyRun::repose, py::arg("vertices"), py::arg("faces"), py::arg("bones"), py::arg("batch") = 8,
            py::call_guard<py::gil_scoped_release>(),
            "Canonical mesh vertices [V, 3] into every pose of bones [N, J, 4, 4] -> [N, V, 3], keeping the faces")

@@ -16,6 +16,7 @@ namespace fskin::cli {
 
 struct MeshingFlags {
   int64_t resolution = 256, initial = 32, batch = 0;
+  int64_t surface_steps = PosedMeshingOptions{}.surface_steps;
   double padding = 0.1;
   bool largest_component = false;
   std::string device = "cpu";  // where the model runs (core/device.h); meshes come back to the host
@@ -32,6 +33,11 @@ inline void add_meshing_flags(CLI::App& cmd, MeshingFlags& flags) {
       ->check(CLI::PositiveNumber);
   cmd.add_option("--padding", flags.padding, "box margin per side, as a fraction of its longest side")
       ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd.add_option("--surface-steps", flags.surface_steps,
+                 "model evaluations per vertex that move it onto the surface (0: marching cubes' linear "
+                 "interpolation, which leaves terraces on learned occupancies)")
+      ->check(CLI::Range(0, 64))
       ->capture_default_str();
   cmd.add_flag("--largest-component", flags.largest_component, "keep only the connected component with most faces");
   cmd.add_option("--device", flags.device, "cpu, cuda or cuda:N: where the model runs")->capture_default_str();
@@ -55,6 +61,7 @@ inline PosedMeshingOptions meshing_options(const MeshingFlags& flags, const Trai
   PosedMeshingOptions options;
   options.mise = MiseOptions::resolutions(flags.initial, flags.resolution);
   options.mise.batch_size = flags.batch > 0 ? flags.batch : config.eval_chunk_points;
+  options.surface_steps = flags.surface_steps;
   options.padding = flags.padding;
   options.largest_component = flags.largest_component;
   return options;

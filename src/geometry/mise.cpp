@@ -43,10 +43,10 @@ std::string MiseStats::summary() const {
   std::string levels;
   for (size_t l = 0; l < evaluated_per_level.size(); ++l)
     levels += fmt::format("{}{}", l ? " + " : "", evaluated_per_level[l]);
-  return fmt::format("MISE on a {}x{}x{} grid: {} of {} samples evaluated ({:.1f} %; per level {}), field {:.2f} s, "
-                     "total {:.2f} s",
+  return fmt::format("MISE on a {}x{}x{} grid: {} of {} samples evaluated ({:.1f} %; per level {}), {} more "
+                     "placing the vertices, field {:.2f} s, total {:.2f} s",
                      dims[2], dims[1], dims[0], points_evaluated, dense_points, 100.0 * evaluated_fraction(), levels,
-                     field_seconds, seconds);
+                     refinement_points, field_seconds, seconds);
 }
 
 MiseOptions MiseOptions::resolutions(int64_t initial, int64_t final) {
@@ -68,6 +68,8 @@ void MiseOptions::validate() const {
               upsampling_steps);
   FSKIN_CHECK(final_resolution() <= 4096, "MISE: final resolution {} is above 4096", final_resolution());
   FSKIN_CHECK(dilated_levels >= 0, "MISE: dilated levels must be >= 0, got {}", dilated_levels);
+  FSKIN_CHECK(refinement_steps >= 0 && refinement_steps <= 64, "MISE: refinement steps must be in [0, 64], got {}",
+              refinement_steps);
   FSKIN_CHECK(batch_size >= 1, "MISE: batch size must be >= 1, got {}", batch_size);
   FSKIN_CHECK(std::isfinite(iso), "MISE: iso value must be finite");
 }
@@ -185,6 +187,13 @@ MiseResult mise(const ScalarField& field, const std::array<double, 3>& lo, const
     view.copy_(torch::where(level_view(evaluated, stride), view, up));
   }
   result.mesh = iso_surface(values, box, IsoSurfaceOptions{options.iso, options.inside_above});
+  if (options.refinement_steps > 0) {
+    const auto field_start = Clock::now();
+    stats.refinement_points =
+        refine_iso_vertices(result.mesh, values, box, field, options.iso, options.refinement_steps, options.batch_size)
+            .field_points;
+    stats.field_seconds += seconds_since(field_start);
+  }
   result.values = values;
   stats.seconds = seconds_since(start);
   return result;

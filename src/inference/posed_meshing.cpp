@@ -32,7 +32,9 @@ void prepare_for_inference(OccupancyModel& model) {
 
 MeshingResult extract(const ScalarField& field, const Box& box, const PosedMeshingOptions& options,
                       const MiseProgress& progress, Clock::time_point start) {
-  auto found = mise(field, box.min, box.max, options.mise, progress);
+  MiseOptions mise_options = options.mise;
+  mise_options.refinement_steps = options.surface_steps;
+  auto found = mise(field, box.min, box.max, mise_options, progress);
   MeshingResult result{std::move(found.mesh), found.stats, box, 0.0};
   if (options.largest_component && result.mesh.num_faces() > 0) result.mesh = keep_largest_component(result.mesh);
   result.seconds = std::chrono::duration<double>(Clock::now() - start).count();

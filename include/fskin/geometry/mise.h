@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "fskin/geometry/iso_refinement.h"
 #include "fskin/geometry/iso_surface.h"
 #include "fskin/geometry/mesh.h"
 
@@ -38,6 +39,11 @@ struct MiseOptions {
   // split too (ONet: 0). The coarse levels are where a thin part can cross a
   // cell without any corner inside it; one level costs little.
   int64_t dilated_levels = 1;
+  // Field evaluations per vertex that move the final mesh's vertices onto the
+  // level set along their grid edges (geometry/iso_refinement.h); 0 keeps
+  // marching cubes' linear interpolation, which terraces the surfaces of
+  // nearly binary fields such as learned occupancies.
+  int64_t refinement_steps = 0;
   double iso = 0.0;          // logit 0 = probability 0.5
   bool inside_above = true;  // as IsoSurfaceOptions
   int64_t batch_size = 1 << 16;  // points per field call
@@ -54,6 +60,7 @@ struct MiseStats {
   int64_t points_evaluated = 0;         // field evaluations, all levels
   int64_t dense_points = 0;             // D * H * W: what sampling the final grid costs
   std::vector<int64_t> evaluated_per_level;  // level 0 = the coarse grid
+  int64_t refinement_points = 0;        // field evaluations that moved vertices onto the level set
   double field_seconds = 0;             // inside the field callback
   double seconds = 0;                   // everything, marching cubes included
   double evaluated_fraction() const {

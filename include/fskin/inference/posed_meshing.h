@@ -30,6 +30,10 @@ namespace fskin {
 
 struct PosedMeshingOptions {
   MiseOptions mise;  // iso 0 on logits, inside above (the defaults)
+  // Model evaluations per vertex that move it onto the learned surface
+  // (MiseOptions::refinement_steps, geometry/iso_refinement.h): without them a
+  // learned, nearly binary occupancy meshes with terraces.
+  int64_t surface_steps = 4;
   double padding = kCanonicalBoxPadding;
   bool largest_component = false;  // drop floaters: keep the component with the most faces
 };
