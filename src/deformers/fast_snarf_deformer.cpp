@@ -13,7 +13,9 @@ FastSnarfDeformer::FastSnarfDeformer(std::shared_ptr<GridSkinningField> field, D
 
 void FastSnarfDeformer::prepare(const torch::Tensor& bones) {
   // T_v = sum_j w_vj B_j for every voxel (eq. 15): one [V, J] x [J, 12] product per frame.
-  const auto w = field_->grid_weights().to(bones.dtype());  // [D, H, W, J]
+  const auto grid = field_->grid_weights();  // [D, H, W, J]
+  start_weights_ = grid.detach();
+  const auto w = grid.to(bones.dtype());
   const int64_t B = bones.size(0), J = bones.size(1);
   const auto top = bones.narrow(2, 0, 3).reshape({B, 1, J, 12});
   const auto& s = field_->box().shape;
@@ -28,7 +30,8 @@ Deformer::SearchResult FastSnarfDeformer::search(const torch::Tensor& x_posed, c
     o.num_starts = options_.start_bones.slots(field_->num_bones());
   }
   torch::Tensor start_weights;
-  if (o.num_starts >= 0) start_weights = field_->grid_weights().detach();  // all bones are candidates
+  // All bones are candidates, ranked on the weights prepare() read.
+  if (o.num_starts >= 0) start_weights = start_weights_.defined() ? start_weights_ : field_->grid_weights().detach();
   auto r = broyden_search(transform_grid_.detach(), field_->box(), x_posed, start_inverses, o, start_weights);
   return {r.x_canonical, r.valid, r.iterations, r.inverse_jacobian};
 }

@@ -19,11 +19,18 @@ class FastSnarfDeformer : public Deformer {
   SearchResult search(const torch::Tensor& x_posed, const torch::Tensor& start_inverses,
                       bool need_inverse_jacobian) override;
   torch::Tensor deform_prepared(int64_t b, const torch::Tensor& x) override;
-  void release() override { transform_grid_ = torch::Tensor(); }
+  void release() override {
+    transform_grid_ = torch::Tensor();
+    start_weights_ = torch::Tensor();
+  }
 
  private:
   std::shared_ptr<GridSkinningField> field_;
   torch::Tensor transform_grid_;  // [B, D, H, W, 12], with the graph when training
+  // The grid's weights [D, H, W, J] as prepare() read them, without the graph:
+  // what the automatic start bones rank (reading the field again would
+  // evaluate a distilled field's MLP at every voxel a second time).
+  torch::Tensor start_weights_;
 };
 
 }  // namespace fskin
