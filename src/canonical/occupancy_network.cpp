@@ -39,6 +39,13 @@ void OccupancyNetworkOptions::validate() const {
   FSKIN_CHECK(encoding_frequencies >= 0 && encoding_frequencies <= 16,
               "occupancy network: encoding_frequencies {} must be in 0..16", encoding_frequencies);
   FSKIN_CHECK(init_radius > 0, "occupancy network: init_radius {} must be positive", init_radius);
+  FSKIN_CHECK(hash_levels >= 0 && hash_levels <= kMaxHashLevels, "occupancy network: hash_levels {} must be in 0..{}",
+              hash_levels, kMaxHashLevels);
+  if (hash_levels > 0) {
+    HashEncodingOptions h = hash;
+    h.levels = hash_levels;
+    h.validate();
+  }
 }
 
 torch::Tensor positional_encoding(const torch::Tensor& x, int64_t frequencies) {
@@ -56,6 +63,11 @@ OccupancyNetworkImpl::OccupancyNetworkImpl(const OccupancyNetworkOptions& option
   options.validate();
   MlpOptions mlp;
   mlp.input_dim = 3 + 6 * options.encoding_frequencies;
+  if (options.hash_levels > 0) {
+    options_.hash.levels = options.hash_levels;
+    mlp.input_dim += options_.hash.output_dim();
+    hash_table_ = register_parameter("hash_table", hash_encoding_table(options_.hash));
+  }
   mlp.output_dim = 1;
   mlp.hidden_dim = options.hidden_dim;
   mlp.hidden_layers = options.hidden_layers;
@@ -71,10 +83,22 @@ OccupancyNetworkImpl::OccupancyNetworkImpl(const OccupancyNetworkOptions& option
   mlp_ = register_module("mlp", Mlp(mlp));
 }
 
+torch::Tensor OccupancyNetworkImpl::encode(const torch::Tensor& x) const {
+  const auto u = options_.input.apply(x);
+  const auto frequencies = positional_encoding(u, options_.encoding_frequencies);
+  if (options_.hash_levels == 0) return frequencies;
+  // The normalised box [-1, 1] (longest side) onto the hash grid's unit cube.
+  const auto unit = ((u.reshape({-1, 3}) + 1) * 0.5).to(hash_table_.scalar_type());
+  std::vector<int64_t> shape(x.sizes().begin(), x.sizes().end());
+  shape.back() = options_.hash.output_dim();
+  const auto features = hash_encoding(unit, hash_table_, options_.hash).to(frequencies.scalar_type()).view(shape);
+  return torch::cat({frequencies, features}, -1);
+}
+
 torch::Tensor OccupancyNetworkImpl::forward(const torch::Tensor& x, const torch::Tensor& pose) {
   FSKIN_CHECK(x.dim() >= 2 && x.size(-1) == 3, "occupancy network: points must be [B, ..., 3], got {}",
               shape_string(x.sizes()));
-  const auto encoded = positional_encoding(options_.input.apply(x), options_.encoding_frequencies);
+  const auto encoded = encode(x);
   if (options_.pose_dim == 0) return mlp_->forward(encoded).squeeze(-1);
   FSKIN_CHECK(pose.defined() && pose.dim() == 2 && pose.size(0) == x.size(0) &&
                   pose.size(1) == options_.pose_dim,

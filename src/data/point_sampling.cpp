@@ -50,6 +50,10 @@ void SamplingOptions::validate() const {
 }
 
 torch::Tensor sample_surface(const Mesh& mesh, int64_t count, Rng& rng) {
+  return sample_surface_with_faces(mesh, count, rng).points;
+}
+
+SurfaceSamples sample_surface_with_faces(const Mesh& mesh, int64_t count, Rng& rng) {
   mesh.validate("sample_surface mesh");
   const auto v = mesh.vertices.to(torch::kFloat64).contiguous();
   const auto f = mesh.faces.contiguous();
@@ -72,11 +76,14 @@ torch::Tensor sample_surface(const Mesh& mesh, int64_t count, Rng& rng) {
   }
   FSKIN_CHECK(total > 0.0, "sample_surface: the mesh has zero area");
   auto out = torch::empty({count, 3}, torch::kFloat32);
+  auto face_of = torch::empty({count}, torch::kInt64);
   float* op = out.data_ptr<float>();
+  int64_t* fo = face_of.data_ptr<int64_t>();
   for (int64_t k = 0; k < count; ++k) {
     const double target = rng.uniform() * total;
     const int64_t i = std::min<int64_t>(
         F - 1, std::upper_bound(cumulative.begin(), cumulative.end(), target) - cumulative.begin());
+    fo[k] = i;
     // Uniform barycentric coordinates: fold the unit square onto the triangle.
     double s = rng.uniform(), t = rng.uniform();
     if (s + t > 1.0) {
@@ -89,7 +96,7 @@ torch::Tensor sample_surface(const Mesh& mesh, int64_t count, Rng& rng) {
     for (int d = 0; d < 3; ++d)
       op[3 * k + d] = static_cast<float>(a[d] + s * (b[d] - a[d]) + t * (c[d] - a[d]));
   }
-  return out;
+  return {out, face_of};
 }
 
 torch::Tensor sample_box(const Box& box, int64_t count, Rng& rng) {

@@ -11,10 +11,11 @@ torch::Tensor sample_bone_points(const CanonicalSkeleton& skeleton, int64_t per_
   FSKIN_CHECK(per_bone >= 1, "bootstrap: points per bone must be >= 1, got {}", per_bone);
   std::vector<int64_t> heads, tails;
   for (int64_t j = 1; j < static_cast<int64_t>(skeleton.parents.size()); ++j) {
+    if (!skeleton.counts_segment(j)) continue;
     heads.push_back(skeleton.parents[j]);
     tails.push_back(j);
   }
-  FSKIN_CHECK(!heads.empty(), "bootstrap: the skeleton has no bones (one joint)");
+  FSKIN_CHECK(!heads.empty(), "bootstrap: the skeleton has no bones in the body (one joint, or every segment outside)");
   const auto joints = skeleton.joints.to(torch::kFloat32);
   const auto head = joints.index_select(0, torch::tensor(heads)).unsqueeze(1);  // [S, 1, 3]
   const auto tail = joints.index_select(0, torch::tensor(tails)).unsqueeze(1);
@@ -32,9 +33,22 @@ torch::Tensor bone_occupancy_loss(OccupancyModel& model, const torch::Tensor& bo
 }
 
 torch::Tensor joint_weight_loss(SkinningField& field, const CanonicalSkeleton& skeleton) {
-  const auto joints = skeleton.joints.to(module_device(field), torch::kFloat32);
-  const auto weights = field.weights(joints);  // [J, J]
-  return torch::mse_loss(weights, torch::eye(joints.size(0), joints.options()));
+  // Joints none of whose segments lie in the body (a root on the ground
+  // below the hips) drive no skin: their one-hot weight there would be wrong.
+  const int64_t J = static_cast<int64_t>(skeleton.parents.size());
+  std::vector<bool> in_body(J, skeleton.segment_in_body.empty());
+  for (int64_t j = 1; j < J && !skeleton.segment_in_body.empty(); ++j)
+    if (skeleton.counts_segment(j)) in_body[j] = in_body[skeleton.parents[j]] = true;
+  std::vector<int64_t> kept;
+  for (int64_t j = 0; j < J; ++j)
+    if (in_body[j] || J < 2) kept.push_back(j);
+  if (kept.empty())
+    for (int64_t j = 0; j < J; ++j) kept.push_back(j);
+  const auto index = torch::tensor(kept);
+  const auto joints = skeleton.joints.index_select(0, index).to(module_device(field), torch::kFloat32);
+  const auto weights = field.weights(joints);  // [K, J]
+  const auto target = torch::eye(J, joints.options()).index_select(0, index.to(joints.device()));
+  return torch::mse_loss(weights, target);
 }
 
 torch::Tensor bootstrap_loss(OccupancyModel& model, const BootstrapInputs& inputs) {

@@ -10,23 +10,8 @@
 namespace fskin {
 
 torch::Tensor nearest_bone_weights(const CanonicalSkeleton& skeleton, const torch::Tensor& points) {
-  expect_shape(points, {-1, 3}, "skinning prior: points");
-  const int64_t J = static_cast<int64_t>(skeleton.parents.size());
-  FSKIN_CHECK(J >= 2, "skinning prior: the skeleton needs >= 2 joints, has {}", J);
-  std::vector<int64_t> heads, tails;
-  for (int64_t j = 1; j < J; ++j) {
-    heads.push_back(skeleton.parents[j]);
-    tails.push_back(j);
-  }
-  const auto joints = skeleton.joints.to(points.dtype());
-  const auto a = joints.index_select(0, torch::tensor(heads)), b = joints.index_select(0, torch::tensor(tails));
-  const auto ab = b - a;                                               // [S, 3]
-  const auto ap = points.unsqueeze(1) - a.unsqueeze(0);                // [M, S, 3]
-  const auto t = ((ap * ab).sum(-1) / ab.square().sum(-1).clamp_min(1e-12)).clamp(0.0, 1.0);  // [M, S]
-  const auto distance = (ap - t.unsqueeze(-1) * ab).norm(2, -1);      // [M, S]
-  const auto nearest = distance.argmin(1);                             // segment index
-  const auto bone = torch::tensor(heads).index_select(0, nearest);    // its head joint's bone
-  return torch::one_hot(bone, J).to(points.dtype());
+  return torch::one_hot(nearest_bone(skeleton, points), static_cast<int64_t>(skeleton.parents.size()))
+      .to(points.dtype());
 }
 
 torch::Tensor skinning_prior_points(const CanonicalSkeleton& skeleton, int64_t count, uint64_t seed) {

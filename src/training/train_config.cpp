@@ -17,10 +17,11 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     warmup_steps, warmup_factor, decay_fraction, decay_factor, pin_layers, pin_per_bone_dim, pin_pose_hidden_dim, pin_space_hidden_dim,
     pin_space_output, pin_space_omega, pin_map_hidden_dim, pin_rotation, pin_pose_frame, pin_bone_dropout,
     pin_learning_rate_factor,
-    bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, skinning_prior_steps, checkpoint_every, keep_checkpoints,
+    bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, bootstrap_bones, skinning_prior_steps, checkpoint_every, keep_checkpoints,
     validate_every, validation_frames,
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
-    pose_layer, encoding_frequencies, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, canonical_sparsity_weight,
+    pose_layer, encoding_frequencies, occupancy_hash_levels, occupancy_hash_log2_table_size,
+    occupancy_hash_base_resolution, occupancy_hash_finest_resolution, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, canonical_sparsity_weight,
     canonical_sparsity_points, grid_resolution, grid_padding, grid, part_hidden_dim, part_hidden_layers, start_bones,
     max_iterations, snarf_roots, implicit_gradient, eval_chunk_points)
 
@@ -115,7 +116,7 @@ TrainConfig TrainConfig::load_run(const std::string& path) {
   // written without the key used.
   static const std::vector<std::pair<std::string, nlohmann::json>> kBeforeTheKeyExisted = {
       {"pin_space_output", "sine"}, {"pin_space_omega", 30.0}, {"pin_pose_frame", "global"}, {"pin_bone_dropout", 0.0},
-      {"grid_resolution", 0}};
+      {"grid_resolution", 0}, {"occupancy_hash_levels", 0}, {"bootstrap_bones", "all"}};
   nlohmann::json saved = parse_object(read_file(path), path);
   for (const auto& [key, value] : kBeforeTheKeyExisted) {
     if (!saved.contains(key)) saved[key] = value;
@@ -182,12 +183,22 @@ void TrainConfig::validate() const {
               pin_bone_dropout);
   FSKIN_CHECK(pin_space_output == "sine" || pin_space_output == "linear",
               "config: pin_space_output must be \"sine\" or \"linear\", got \"{}\"", pin_space_output);
+  FSKIN_CHECK(bootstrap_bones == "all" || bootstrap_bones == "in-body",
+              "config: bootstrap_bones must be \"all\" or \"in-body\", got \"{}\"", bootstrap_bones);
   FSKIN_CHECK(snarf_roots == "converged" || snarf_roots == "in-box",
               "config: snarf_roots must be \"converged\" or \"in-box\", got \"{}\"", snarf_roots);
   FSKIN_CHECK(implicit_gradient == "default" || implicit_gradient == "exact" || implicit_gradient == "approximate",
               "config: implicit_gradient must be \"default\", \"exact\" or \"approximate\", got \"{}\"",
               implicit_gradient);
   FSKIN_CHECK(part_hidden_dim >= 1 && part_hidden_layers >= 1, "config: part_hidden_dim and part_hidden_layers must be >= 1");
+  FSKIN_CHECK(occupancy_hash_levels >= 0 && occupancy_hash_levels <= 32 && occupancy_hash_log2_table_size >= 4 &&
+                  occupancy_hash_log2_table_size <= 24 && occupancy_hash_base_resolution >= 1 &&
+                  occupancy_hash_finest_resolution >= occupancy_hash_base_resolution &&
+                  occupancy_hash_finest_resolution <= (1 << 20),
+              "config: occupancy_hash_levels ({}) must be in 0..32, occupancy_hash_log2_table_size ({}) in 4..24, "
+              "and 1 <= occupancy_hash_base_resolution ({}) <= occupancy_hash_finest_resolution ({}) <= 2^20",
+              occupancy_hash_levels, occupancy_hash_log2_table_size, occupancy_hash_base_resolution,
+              occupancy_hash_finest_resolution);
 }
 
 int64_t TrainConfig::bootstrap_steps(int64_t frames) const {
@@ -239,6 +250,18 @@ ModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& s
   occ.pose_embedding_dim = config.pose_embedding_dim;
   occ.pose_layer = config.pose_layer;
   occ.encoding_frequencies = config.encoding_frequencies;
+  occ.hash_levels = config.occupancy_hash_levels;
+  occ.hash.levels = std::max<int64_t>(config.occupancy_hash_levels, 1);
+  occ.hash.features_per_level = 2;
+  occ.hash.log2_table_size = config.occupancy_hash_log2_table_size;
+  occ.hash.base_resolution = config.occupancy_hash_base_resolution;
+  // instant-NGP's growth factor: from the base to the finest resolution over the levels.
+  occ.hash.per_level_scale =
+      config.occupancy_hash_levels > 1
+          ? std::exp(std::log(static_cast<double>(config.occupancy_hash_finest_resolution) /
+                              static_cast<double>(config.occupancy_hash_base_resolution)) /
+                     static_cast<double>(config.occupancy_hash_levels - 1))
+          : 1.0;
   occ.init_radius = config.init_radius;
   occ.input = InputNormalization::around(skeleton.extent);
   o.skinning.num_bones = num_bones;

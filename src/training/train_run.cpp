@@ -1,14 +1,50 @@
 #include "fskin/training/train_run.h"
 
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
 
 #include "fskin/core/device.h"
 #include "fskin/core/error.h"
+#include "fskin/data/canonical_skeleton.h"
 #include "fskin/data/dataset.h"
+#include "fskin/data/inside_test.h"
+#include "fskin/data/thin_parts.h"
 #include "fskin/evaluation/evaluation_frame.h"
 #include "fskin/training/dataset_source.h"
 
 namespace fskin {
+namespace {
+
+// The coarsest spacing of a voxel box's grid, in the canonical body's units.
+double coarsest_cell(const VoxelBox& box) {
+  const int64_t voxels[3] = {box.shape.width, box.shape.height, box.shape.depth};
+  double cell = 0;
+  for (int a = 0; a < 3; ++a) cell = std::max(cell, 2.0 / (box.scale[a] * static_cast<double>(voxels[a] - 1)));
+  return cell;
+}
+
+// Warns (stderr) about parts of the canonical body thinner than the skinning
+// grid's cells: their weights blur into their neighbours' (thin_parts.h).
+void warn_about_thin_parts(const TrainConfig& config, const Dataset& dataset) {
+  const auto& canonical = dataset.canonical();
+  if (!inside_test_available() || !canonical.vertices.defined() || !canonical.faces.defined() ||
+      canonical.faces.size(0) == 0)
+    return;
+  const auto skeleton = canonical_skeleton(dataset);
+  const auto options = model_options(config, skeleton);
+  if (options.method != Method::FastSnarf && options.method != Method::Ins) return;
+  const double cell = coarsest_cell(options.forward_skinning.box);
+  const auto thin = find_thin_parts(Mesh{canonical.vertices, canonical.faces, {}}, skeleton, cell);
+  if (thin.bones.empty()) return;
+  std::fprintf(stderr,
+               "fskin: warning: %.1f %% of the canonical surface lies on parts thinner than the skinning grid's "
+               "cells (%.3g m); they hang from %s. Their skinning weights blur into their neighbours' "
+               "(grid_resolution=%lld; a larger one makes the cells smaller)\n",
+               100 * thin.thin_fraction, cell, thin.summary().c_str(), static_cast<long long>(config.grid_resolution));
+}
+
+}  // namespace
 
 TrainRunResult train_run(const TrainRunRequest& request,
                          const std::function<void(const TrainConfig&, int64_t frames)>& on_start) {
@@ -27,6 +63,7 @@ TrainRunResult train_run(const TrainRunRequest& request,
   FSKIN_CHECK(!config.data.empty(), "train: no --data given (and no saved run config in {})", request.out);
 
   const auto dataset = Dataset::load(config.data, "train");
+  if (!request.resume) warn_about_thin_parts(config, dataset);
   const DatasetBatchSource source(dataset);
   std::vector<OccupancyFrame> validation;
   if (config.validate_every > 0) {

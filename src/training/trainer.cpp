@@ -177,7 +177,10 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
   write_file_atomically(config_path(options.run_dir), config.to_json());
 
   torch::manual_seed(config.seed);
-  const auto& skeleton = source.skeleton();
+  // The bootstrap losses and the skinning prior use the bone segments that run
+  // inside the body, or all of them (config.bootstrap_bones).
+  CanonicalSkeleton skeleton = source.skeleton();
+  if (config.bootstrap_bones == "all") skeleton.segment_in_body.clear();
   const auto described = model_options(config, skeleton);
   const double outside = fraction_outside_grid(described, skeleton);
   if (outside > 0)

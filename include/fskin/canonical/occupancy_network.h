@@ -4,13 +4,15 @@
 // conditioning: the pose vector is embedded by a Linear layer and
 // concatenated at one hidden layer (SNARF: layer 4, Fast-SNARF: layer 6);
 // without it the network is the pose-free "SNARF-NC" variant. Optional NeRF
-// positional encoding of the input (the papers' clothed setup).
+// positional encoding of the input (the papers' clothed setup), and an
+// optional hash-grid encoding.
 #include <torch/torch.h>
 
 #include <vector>
 
 #include "fskin/networks/input_normalization.h"
 #include "fskin/networks/mlp.h"
+#include "fskin/ops/hash_encoding.h"
 
 namespace fskin {
 
@@ -25,6 +27,12 @@ struct OccupancyNetworkOptions {
   int64_t pose_layer = 4;
   // NeRF encoding frequencies (0: raw coordinates).
   int64_t encoding_frequencies = 0;
+  // Multi-resolution hash encoding (ops/hash_encoding.h) of the point in the
+  // normalised box, concatenated after the coordinates and their frequencies
+  // (hash_levels 0: none). Its grids resolve parts much thinner than a few
+  // hundred steps of an MLP on frequencies do.
+  int64_t hash_levels = 0;
+  HashEncodingOptions hash;  // levels is hash_levels
   // Canonical points -> network coordinates (applied before the encoding).
   InputNormalization input;
   // Geometric init: initially occupied inside a sphere of this radius (in
@@ -53,8 +61,11 @@ class OccupancyNetworkImpl : public torch::nn::Module {
   const OccupancyNetworkOptions& options() const { return options_; }
 
  private:
+  torch::Tensor encode(const torch::Tensor& x) const;
+
   OccupancyNetworkOptions options_;
   Mlp mlp_{nullptr};
+  torch::Tensor hash_table_;  // [L, 2^T, F] when hash_levels > 0
   torch::nn::Linear pose_embedding_{nullptr};
 };
 TORCH_MODULE(OccupancyNetwork);

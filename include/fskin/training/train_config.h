@@ -42,6 +42,11 @@ struct TrainConfig {
   double bootstrap_epochs = 1;
   int64_t bone_points_per_bone = 5;
   double joint_weight_loss_weight = 10;
+  // Which bone segments the bootstrap losses and the skinning prior use:
+  // "all" (the papers: every segment is assumed inside the body) or
+  // "in-body" (those inside the canonical mesh, CanonicalSkeleton::segment_in_body:
+  // real rigs' roots on the ground and bones outside the skin are left out).
+  std::string bootstrap_bones = "all";
   // Warm start of the skinning network on the skeleton's nearest-bone prior
   // (skinning_prior.h) before step 0; 0 turns it off (the papers' setting).
   int64_t skinning_prior_steps = 100;
@@ -63,6 +68,14 @@ struct TrainConfig {
   int64_t pose_embedding_dim = 8;
   int64_t pose_layer = 2;
   int64_t encoding_frequencies = 4;  // NeRF frequencies (papers: 0, 4 for clothed data)
+  // Hash-grid encoding of the canonical point, concatenated to the network's
+  // input (canonical/occupancy_network.h): levels (0: none), table rows 2^T
+  // per level, and the coarsest and finest grid resolutions along the
+  // canonical body's longest side.
+  int64_t occupancy_hash_levels = 0;
+  int64_t occupancy_hash_log2_table_size = 17;
+  int64_t occupancy_hash_base_resolution = 16;
+  int64_t occupancy_hash_finest_resolution = 512;
   double init_radius = 1.0;
   // Skinning MLP and (Fast-SNARF) its voxel grid, depth/height/width = z/y/x.
   int64_t skinning_hidden_dim = 128;
