@@ -6,7 +6,9 @@
 #
 #   scripts/bench_characters.sh [--kinds "lowpoly-animal lowpoly-humanoid"] [--seeds "0 1 2"]
 #                               [--tag NAME] [-- extra fskin train arguments]
-# Environment: FSKIN (default build/fskin), OUT (default bench-characters).
+# Environment: FSKIN (default build/fskin), OUT (default bench-characters),
+# THREADS (default 2: training is deterministic for a seed and a fixed thread
+# count, and its result depends on the count, so the runs fix it).
 #
 # Characters and their splits (docs/benchmarks.md, "Real-asset-like characters"):
 #   lowpoly-animal    train on its idle + walk clips, OOD = its run clip
@@ -21,6 +23,7 @@ OUT=${OUT:-bench-characters}
 KINDS="lowpoly-animal lowpoly-humanoid"
 SEEDS="0 1 2"
 TAG=default
+THREADS=${THREADS:-2}
 while [ $# -gt 0 ]; do
   case "$1" in
     --kinds) KINDS=$2; shift 2 ;;
@@ -65,13 +68,13 @@ for kind in $KINDS; do
     run="$OUT/$kind/run-$TAG-$seed"
     rm -rf "$run"
     start=$(date +%s.%N)
-    "$FSKIN" train --data "$OUT/$kind/data" --out "$run" --quiet --set seed="$seed" "${EXTRA[@]}" > "$run.log" 2>&1 ||
+    "$FSKIN" --threads "$THREADS" train --data "$OUT/$kind/data" --out "$run" --quiet --set seed="$seed" "${EXTRA[@]}" > "$run.log" 2>&1 ||
       { echo "bench_characters: training failed, see $run.log" >&2; exit 1; }
     seconds=$(/usr/bin/python3 -c "import sys; print(round(float(sys.argv[2]) - float(sys.argv[1]), 1))" "$start" "$(date +%s.%N)")
     "$FSKIN" eval "$run" --split test-within --quiet > /dev/null
     "$FSKIN" eval "$run" --split test-ood --quiet > /dev/null
-    line=$(printf '{"tag": "%s", "kind": "%s", "seed": %s, "train_s": %s, "within_bbox": %s, "within_surf": %s, "ood_bbox": %s, "ood_surf": %s}' \
-      "$TAG" "$kind" "$seed" "$seconds" \
+    line=$(printf '{"tag": "%s", "kind": "%s", "seed": %s, "threads": %s, "train_s": %s, "within_bbox": %s, "within_surf": %s, "ood_bbox": %s, "ood_surf": %s}' \
+      "$TAG" "$kind" "$seed" "$THREADS" "$seconds" \
       "$(iou "$run/eval-test-within.json" mean_iou_bbox)" "$(iou "$run/eval-test-within.json" mean_iou_surf)" \
       "$(iou "$run/eval-test-ood.json" mean_iou_bbox)" "$(iou "$run/eval-test-ood.json" mean_iou_surf)")
     echo "$line" | tee -a "$OUT/results.jsonl"

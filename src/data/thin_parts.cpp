@@ -12,9 +12,11 @@
 
 namespace fskin {
 
-std::string ThinParts::summary() const {
+std::string ThinParts::summary(size_t max_bones) const {
   std::string out;
-  for (const auto& b : bones) out += fmt::format("{}{} ({:.0f} %)", out.empty() ? "" : ", ", b.name, 100 * b.share);
+  for (size_t i = 0; i < bones.size() && i < max_bones; ++i)
+    out += fmt::format("{}{} ({:.0f} %)", i ? ", " : "", bones[i].name, 100 * bones[i].share);
+  if (bones.size() > max_bones) out += fmt::format(" and {} more", bones.size() - max_bones);
   return out;
 }
 

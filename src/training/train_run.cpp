@@ -39,7 +39,7 @@ void warn_about_thin_parts(const TrainConfig& config, const Dataset& dataset) {
   if (thin.bones.empty()) return;
   std::fprintf(stderr,
                "fskin: warning: %.1f %% of the canonical surface lies on parts thinner than the skinning grid's "
-               "cells (%.3g m); they hang from %s. Their skinning weights blur into their neighbours' "
+               "cells (%.3g in the model's units); they hang from %s. Their skinning weights blur into their neighbours' "
                "(grid_resolution=%lld; a larger one makes the cells smaller)\n",
                100 * thin.thin_fraction, cell, thin.summary().c_str(), static_cast<long long>(config.grid_resolution));
 }

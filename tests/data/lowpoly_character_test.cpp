@@ -7,10 +7,13 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <cmath>
 #include <map>
 
 #include "fskin/body/smpl_skeleton.h"
+#include "fskin/data/inside_test.h"
 #include "fskin/data/clip_selection.h"
 #include "fskin/data/pose_generators.h"
 #include "fskin/geometry/mesh_topology.h"
@@ -201,6 +204,25 @@ TEST(LowPolyCharacterCommand, WritesTheModelAndItsClips) {
   EXPECT_NE(run_cli("character --kind lowpoly-animal --clothed --out " + model), 0);
   EXPECT_NE(run_cli("character --kind lowpoly-animal --height 2 --out " + model), 0);
   EXPECT_NE(run_cli("character --kind humanoid --clips " + clips + " --out " + model), 0);
+}
+
+TEST(LowPolyCharacterCommand, TrainingWarnsAboutTheFoxsThinParts) {
+  if (!inside_test_available()) GTEST_SKIP() << "built without Embree";
+  const auto dir = testing::temp_dir("lowpoly_thin_warning");
+  const auto path = [&](const char* name) { return (dir / name).string(); };
+  ASSERT_EQ(run_cli("character --kind lowpoly-animal --out " + path("fox.npz") + " --clips " + path("clips.npz")), 0);
+  ASSERT_EQ(run_cli("poses select " + path("clips.npz") + " --train walk:0-9 --out-train " + path("train.npz")), 0);
+  ASSERT_EQ(run_cli("data build --model " + path("fox.npz") + " --poses " + path("train.npz") + " --out " +
+                    path("data") + " --points 1000 --quiet"),
+            0);
+  const auto log = path("train.log");
+  std::system((std::string(FSKIN_CLI_PATH) + " --threads 1 train --data " + path("data") + " --out " + path("run") +
+               " --steps 1 --quiet > " + log + " 2>&1")
+                  .c_str());
+  std::ifstream in(log);
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_NE(text.find("thinner than the skinning grid's cells"), std::string::npos) << text;
+  EXPECT_NE(text.find("ear"), std::string::npos) << text;
 }
 
 INSTANTIATE_TEST_SUITE_P(Kinds, LowPoly, ::testing::Values(LowPolyKind::Humanoid, LowPolyKind::Animal),

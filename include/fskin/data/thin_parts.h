@@ -6,6 +6,7 @@
 // from, before it spends minutes on them.
 #include <torch/types.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -25,8 +26,9 @@ struct ThinParts {
   double cell = 0;             // the length the surface was compared with
   double thin_fraction = 0;    // fraction of all surface samples that are thin
   std::vector<ThinBone> bones; // bones with a thin share >= min_share, most thin first
-  // "ear.L (80 %), tail.003 (64 %)"; empty when no bone is thin.
-  std::string summary() const;
+  // "ear.L (80 %), tail.003 (64 %)" for the first max_bones bones, then
+  // "and N more"; empty when no bone is thin.
+  std::string summary(size_t max_bones = 8) const;
 };
 
 struct ThinPartOptions {
