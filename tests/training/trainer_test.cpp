@@ -101,6 +101,28 @@ TEST_P(TrainerResume, EqualsUninterrupted) {
 INSTANTIATE_TEST_SUITE_P(Methods, TrainerResume, ::testing::Values("fast-snarf", "ins"),
                          [](const auto& info) { return info.param == "fast-snarf" ? "fast_snarf" : info.param; });
 
+// A seed and a thread count fix a run: its log and its parameters repeat
+// exactly. (Across thread counts the reductions are split differently and the
+// runs part in the last digits, then further; docs/benchmarks.md, "Seeds and
+// threads".)
+TEST(Trainer, RepeatsExactlyForASeedAndAThreadCount) {
+  const SyntheticLimb limb(training_angles());
+  TrainConfig config = resume_config("fast-snarf");
+  config.seed = 7;
+  const int previous = at::get_num_threads();
+  for (const int threads : {1, 2}) {
+    at::set_num_threads(threads);
+    const auto a = testing::temp_dir("trainer_repeat_a"), b = testing::temp_dir("trainer_repeat_b");
+    train(config, limb, {a.string(), false, false, nullptr});
+    train(config, limb, {b.string(), false, false, nullptr});
+    EXPECT_EQ(log_column(a, "loss"), log_column(b, "loss")) << threads << " threads";
+    auto model_a = load_trained_model(a.string(), limb.skeleton());
+    auto model_b = load_trained_model(b.string(), limb.skeleton());
+    expect_same_parameters(*model_a, *model_b);
+  }
+  at::set_num_threads(previous);
+}
+
 TEST(Trainer, TruncatedNewestCheckpointFallsBackToThePrevious) {
   const SyntheticLimb limb(training_angles());
   TrainConfig config = tiny_config();
