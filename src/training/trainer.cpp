@@ -204,14 +204,20 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
 
   int64_t step = 0;
   double result_prior_loss = 0;
-  if (options.resume) {
+  // A run killed before its first checkpoint has nothing to resume: it starts
+  // again from step 0, which is what an uninterrupted run would have done.
+  // Checkpoints that exist but fail their CRC stay an error.
+  const bool resuming = options.resume && !list_checkpoints(options.run_dir).empty();
+  if (options.resume && !resuming)
+    std::fprintf(stderr, "fskin: %s has no checkpoint yet: training from step 0\n", options.run_dir.c_str());
+  if (resuming) {
     const auto loaded = load_state(options.run_dir, model, &adam);
     FSKIN_CHECK(loaded.has_value(), "train --resume: no intact checkpoint in {}", options.run_dir);
     step = *loaded;
   }
   model.to(options.device);
   move_optimizer_state(adam, options.device);
-  if (!options.resume && config.skinning_prior_steps > 0 && model.canonical_skinning_field() != nullptr) {
+  if (!resuming && config.skinning_prior_steps > 0 && model.canonical_skinning_field() != nullptr) {
     result_prior_loss = fit_skinning_prior(*model.canonical_skinning_field(), skeleton, config.skinning_prior_steps,
                                            config.learning_rate, step_seed(config.seed, -1));
   }
@@ -221,7 +227,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
   const std::string log_file = log_path(options.run_dir), validation_file = validation_log_path(options.run_dir);
   std::optional<BestScore> best;
   remove_stale_temporaries(options.run_dir);
-  if (options.resume) {
+  if (resuming) {
     truncate_log(log_file, step);
     if (fs::exists(validation_file)) truncate_log(validation_file, step);
     best = read_best(options.run_dir);
@@ -242,7 +248,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
   const Box canonical_box = use_sparsity ? canonical_bounds(skeleton) : Box{};
   const auto start = std::chrono::steady_clock::now();
   ProgressBar bar("train", std::max<int64_t>(config.steps - step, 0), options.progress);
-  int64_t saved_step = options.resume ? step : -1;
+  int64_t saved_step = resuming ? step : -1;
   while (step < config.steps) {
     if (options.stop && options.stop->requested()) {
       result.stopped = true;

@@ -98,6 +98,27 @@ TEST_P(TrainerResume, EqualsUninterrupted) {
   EXPECT_EQ(log_column(whole, "bce"), log_column(split, "bce"));
 }
 
+// A run killed after writing its config but before its first checkpoint:
+// --resume starts it from step 0 and ends where an uninterrupted run ends.
+TEST(Trainer, ResumeBeforeTheFirstCheckpointTrainsFromTheStart) {
+  const SyntheticLimb limb(training_angles());
+  const TrainConfig config = resume_config("fast-snarf");
+  const auto whole = testing::temp_dir("trainer_whole_early");
+  train(config, limb, {whole.string(), false, false, nullptr});
+
+  const auto early = testing::temp_dir("trainer_killed_early");
+  std::ofstream(early / "config.json") << config.to_json();  // what a kill before step 1 leaves
+  const auto resumed = train(config, limb, {early.string(), true, false, nullptr});
+  EXPECT_EQ(resumed.first_step, 0);
+  EXPECT_EQ(resumed.last_step, 8);
+  int64_t step_a = 0, step_b = 0;
+  auto a = load_trained_model(whole.string(), limb.skeleton(), &step_a);
+  auto b = load_trained_model(early.string(), limb.skeleton(), &step_b);
+  EXPECT_EQ(step_b, 8);
+  expect_same_parameters(*a, *b);
+  EXPECT_EQ(log_column(whole, "bce"), log_column(early, "bce"));
+}
+
 INSTANTIATE_TEST_SUITE_P(Methods, TrainerResume, ::testing::Values("fast-snarf", "ins"),
                          [](const auto& info) { return info.param == "fast-snarf" ? "fast_snarf" : info.param; });
 
