@@ -35,23 +35,32 @@ IsoRefinementStats refine_iso_vertices(Mesh& mesh, const torch::Tensor& values, 
   brackets.reserve(V);
   for (int64_t v = 0; v < V; ++v) {
     // Grid coordinates: integral along two axes, fractional along the edge's.
-    double coordinate[3];
-    int edge_axis = -1, fractional = 0;
+    // The edge's axis is the one farthest from a sample; the other two are
+    // integral up to the rounding of the mesh's float32 vertices, which grows
+    // with their distance from the origin (thousandths of a cell for a body
+    // a few units from it on a 256 grid), so they are only required to be
+    // nearer a sample than a quarter cell.
+    double coordinate[3], off_sample[3];
+    int edge_axis = 0;
     for (int axis = 0; axis < 3; ++axis) {
       coordinate[axis] = (vp[3 * v + axis] - box.origin[axis]) / box.voxel_size[axis];
-      if (std::abs(coordinate[axis] - std::round(coordinate[axis])) > 1e-6) {
-        edge_axis = axis;
-        ++fractional;
-      }
+      off_sample[axis] = std::abs(coordinate[axis] - std::round(coordinate[axis]));
+      if (off_sample[axis] > off_sample[edge_axis]) edge_axis = axis;
     }
-    if (fractional != 1) continue;  // on a sample (or not from this grid): keep it
+    bool on_an_edge = true;
+    for (int axis = 0; axis < 3; ++axis)
+      if (axis != edge_axis && off_sample[axis] > 0.25) on_an_edge = false;
+    if (!on_an_edge) continue;  // not a vertex of this grid: keep it
     int64_t lower[3], upper[3];
     for (int axis = 0; axis < 3; ++axis) {
       lower[axis] = upper[axis] = static_cast<int64_t>(std::llround(coordinate[axis]));
     }
     lower[edge_axis] = static_cast<int64_t>(std::floor(coordinate[edge_axis]));
     upper[edge_axis] = lower[edge_axis] + 1;
-    if (lower[edge_axis] < 0 || upper[edge_axis] >= dims[edge_axis]) continue;
+    bool inside = true;
+    for (int axis = 0; axis < 3; ++axis)
+      if (lower[axis] < 0 || upper[axis] >= dims[axis]) inside = false;
+    if (!inside) continue;
     const auto sample = [&](const int64_t* s) { return g[(s[2] * H + s[1]) * W + s[0]] - iso; };
     Bracket bracket{v, {}, {}, sample(lower), sample(upper)};
     if (!(bracket.fa * bracket.fb < 0)) continue;

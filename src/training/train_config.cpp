@@ -22,7 +22,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
     pose_layer, encoding_frequencies, occupancy_hash_levels, occupancy_hash_log2_table_size,
     occupancy_hash_base_resolution, occupancy_hash_finest_resolution, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, canonical_sparsity_weight,
-    canonical_sparsity_points, grid_resolution, grid_padding, grid, part_hidden_dim, part_hidden_layers, start_bones,
+    canonical_sparsity_points, grid_resolution, thin_part_grid_resolution, thin_part_fraction, grid_padding, grid, part_hidden_dim, part_hidden_layers, start_bones,
     max_iterations, snarf_roots, implicit_gradient, eval_chunk_points)
 
 TrainConfig TrainConfig::full() {
@@ -116,7 +116,7 @@ TrainConfig TrainConfig::load_run(const std::string& path) {
   // written without the key used.
   static const std::vector<std::pair<std::string, nlohmann::json>> kBeforeTheKeyExisted = {
       {"pin_space_output", "sine"}, {"pin_space_omega", 30.0}, {"pin_pose_frame", "global"}, {"pin_bone_dropout", 0.0},
-      {"grid_resolution", 0}, {"occupancy_hash_levels", 0}, {"bootstrap_bones", "all"}};
+      {"grid_resolution", 0}, {"thin_part_grid_resolution", 0}, {"occupancy_hash_levels", 0}, {"bootstrap_bones", "all"}};
   nlohmann::json saved = parse_object(read_file(path), path);
   for (const auto& [key, value] : kBeforeTheKeyExisted) {
     if (!saved.contains(key)) saved[key] = value;
@@ -158,6 +158,10 @@ void TrainConfig::validate() const {
               "config: grid must be [depth, height, width], each >= 2");
   FSKIN_CHECK(grid_resolution == 0 || (grid_resolution >= 4 && grid_resolution <= 1024),
               "config: grid_resolution {} must be 0 (use grid) or from 4 to 1024", grid_resolution);
+  FSKIN_CHECK(thin_part_grid_resolution == 0 || (thin_part_grid_resolution >= 4 && thin_part_grid_resolution <= 1024),
+              "config: thin_part_grid_resolution {} must be 0 (off) or from 4 to 1024", thin_part_grid_resolution);
+  FSKIN_CHECK(thin_part_fraction >= 0 && thin_part_fraction <= 1, "config: thin_part_fraction {} must be in [0, 1]",
+              thin_part_fraction);
   FSKIN_CHECK(grid_padding >= 0 && grid_padding <= 1, "config: grid_padding {} must be in [0, 1]", grid_padding);
   FSKIN_CHECK(max_iterations >= 0 && eval_chunk_points >= 1, "config: max_iterations and eval_chunk_points out of range");
   FSKIN_CHECK(start_bones == "default" || start_bones == "smpl-training" || start_bones == "all" ||

@@ -24,24 +24,39 @@ double coarsest_cell(const VoxelBox& box) {
   return cell;
 }
 
-// Warns (stderr) about parts of the canonical body thinner than the skinning
-// grid's cells: their weights blur into their neighbours' (thin_parts.h).
-void warn_about_thin_parts(const TrainConfig& config, const Dataset& dataset) {
+// For a grid-skinned run: raises the skinning grid to
+// thin_part_grid_resolution when too much of the canonical surface is thinner
+// than its cells (train_config.h), then warns (stderr) about the parts still
+// thinner than them: their weights blur into their neighbours' (thin_parts.h).
+void fit_grid_to_thin_parts(TrainConfig& config, const Dataset& dataset) {
   const auto& canonical = dataset.canonical();
   if (!inside_test_available() || !canonical.vertices.defined() || !canonical.faces.defined() ||
       canonical.faces.size(0) == 0)
     return;
   const auto skeleton = canonical_skeleton(dataset);
-  const auto options = model_options(config, skeleton);
-  if (options.method != Method::FastSnarf && options.method != Method::Ins) return;
-  const double cell = coarsest_cell(options.forward_skinning.box);
-  const auto thin = find_thin_parts(Mesh{canonical.vertices, canonical.faces, {}}, skeleton, cell);
+  if (auto m = model_options(config, skeleton).method; m != Method::FastSnarf && m != Method::Ins) return;
+  const Mesh mesh{canonical.vertices, canonical.faces, {}};
+  const auto measure = [&](const TrainConfig& c) {
+    return find_thin_parts(mesh, skeleton, coarsest_cell(model_options(c, skeleton).forward_skinning.box));
+  };
+  auto thin = measure(config);
+  if (config.grid_resolution > 0 && config.thin_part_grid_resolution > config.grid_resolution &&
+      thin.thin_fraction > config.thin_part_fraction) {
+    std::fprintf(stderr,
+                 "fskin: %.1f %% of the canonical surface is thinner than a grid_resolution=%lld cell (%.3g in the "
+                 "model's units): training with grid_resolution=%lld (thin_part_grid_resolution; 0 turns this off)\n",
+                 100 * thin.thin_fraction, static_cast<long long>(config.grid_resolution), thin.cell,
+                 static_cast<long long>(config.thin_part_grid_resolution));
+    config.grid_resolution = config.thin_part_grid_resolution;
+    thin = measure(config);
+  }
   if (thin.bones.empty()) return;
   std::fprintf(stderr,
                "fskin: warning: %.1f %% of the canonical surface lies on parts thinner than the skinning grid's "
                "cells (%.3g in the model's units); they hang from %s. Their skinning weights blur into their neighbours' "
                "(grid_resolution=%lld; a larger one makes the cells smaller)\n",
-               100 * thin.thin_fraction, cell, thin.summary().c_str(), static_cast<long long>(config.grid_resolution));
+               100 * thin.thin_fraction, thin.cell, thin.summary().c_str(),
+               static_cast<long long>(config.grid_resolution));
 }
 
 }  // namespace
@@ -63,7 +78,9 @@ TrainRunResult train_run(const TrainRunRequest& request,
   FSKIN_CHECK(!config.data.empty(), "train: no --data given (and no saved run config in {})", request.out);
 
   const auto dataset = Dataset::load(config.data, "train");
-  if (!request.resume) warn_about_thin_parts(config, dataset);
+  // On --resume too: the grid is a function of the settings and the data, so
+  // settings given again (--set grid_resolution=16) end on the grid the run has.
+  fit_grid_to_thin_parts(config, dataset);
   const DatasetBatchSource source(dataset);
   std::vector<OccupancyFrame> validation;
   if (config.validate_every > 0) {
