@@ -57,8 +57,8 @@ TEST(IsoRefinement, PutsTheVerticesOfANearlyBinaryFieldOnItsSurface) {
 TEST(IsoRefinement, RefinesEveryVertexOfAFineGridFarFromTheOrigin) {
   const int64_t n = 97;
   const double cell = 0.4 / (n - 1);
-  const torch::Tensor centre = torch::tensor({40.3, -25.1, 17.7}, torch::kFloat64);
   const double c[3] = {40.3, -25.1, 17.7};
+  const torch::Tensor centre = torch::tensor({c[0], c[1], c[2]}, torch::kFloat64);
   const auto box = GridBox::spanning({c[0] - 0.2, c[1] - 0.2, c[2] - 0.2}, {c[0] + 0.2, c[1] + 0.2, c[2] + 0.2},
                                      {n, n, n});
   const double radius = 0.13;
