@@ -7,7 +7,6 @@
 #include <cmath>
 #include <map>
 #include <set>
-#include <functional>
 #include <tuple>
 
 #include "fskin/core/error.h"
@@ -18,6 +17,10 @@ namespace fskin {
 namespace {
 
 using Matrix4 = Eigen::Matrix4d;
+
+// Node transforms sampled per clip (key times x nodes) beyond which a file is
+// refused rather than sampled for hours.
+constexpr double kMostSampledNodeTransforms = 2e8;
 
 // A node's local transform: its matrix, or translation * rotation * scale.
 struct Trs {
@@ -51,19 +54,35 @@ Trs rest_trs(const tinygltf::Node& node) {
   return t;
 }
 
-// Global transforms of every node from local ones and the parent map.
-std::vector<Matrix4> global_transforms(const std::vector<Trs>& locals, const std::vector<int>& parent) {
+// Global transforms of every node from local ones, visiting nodes in
+// `parents_first` order (a loop, not a recursion: a node chain may be as deep
+// as the file has nodes).
+std::vector<Matrix4> global_transforms(const std::vector<Trs>& locals, const std::vector<int>& parent,
+                                       const std::vector<int>& parents_first) {
   std::vector<Matrix4> global(locals.size());
-  std::vector<char> done(locals.size(), 0);
-  std::function<const Matrix4&(int)> get = [&](int n) -> const Matrix4& {
-    if (!done[n]) {
-      global[n] = parent[n] < 0 ? locals[n].to_matrix() : Matrix4(get(parent[n]) * locals[n].to_matrix());
-      done[n] = 1;
-    }
-    return global[n];
-  };
-  for (size_t n = 0; n < locals.size(); ++n) get(static_cast<int>(n));
+  for (int n : parents_first)
+    global[n] = parent[n] < 0 ? locals[n].to_matrix() : Matrix4(global[parent[n]] * locals[n].to_matrix());
   return global;
+}
+
+// The nodes in breadth-first order from the roots; throws if a node is not
+// reached (it lies on a cycle). Linear in the number of nodes.
+std::vector<int> nodes_parents_first(const tinygltf::Model& model, const std::vector<int>& parent,
+                                     const std::string& path) {
+  const int num_nodes = static_cast<int>(parent.size());
+  std::vector<int> order;
+  order.reserve(num_nodes);
+  for (int n = 0; n < num_nodes; ++n)
+    if (parent[n] < 0) order.push_back(n);
+  for (size_t i = 0; i < order.size(); ++i)
+    for (int child : model.nodes[order[i]].children) order.push_back(child);
+  if (static_cast<int>(order.size()) < num_nodes) {
+    std::vector<char> reached(num_nodes, 0);
+    for (int n : order) reached[n] = 1;
+    const int first = static_cast<int>(std::find(reached.begin(), reached.end(), 0) - reached.begin());
+    fail("{}: the node tree has a cycle through node {}", path, first);
+  }
+  return order;
 }
 
 std::string node_name(const tinygltf::Model& model, int n) {
@@ -103,6 +122,31 @@ std::vector<double> sample(const Channel& c, double t) {
   return a;
 }
 
+// glTF 2.0 sec. 3.11: key times strictly increase; rotations are unit
+// quaternions (sloppy exporters' near-unit ones are normalised when sampled;
+// a zero or non-finite one has no direction at all).
+void check_keyframes(const Channel& c, const std::string& path, const std::string& clip, const std::string& node) {
+  for (size_t i = 0; i < c.times.size(); ++i) {
+    FSKIN_CHECK(std::isfinite(c.times[i]), "{}: animation '{}' ({} {}) has key time {}", path, clip, node, c.path,
+                c.times[i]);
+    FSKIN_CHECK(i == 0 || c.times[i] > c.times[i - 1],
+                "{}: animation '{}' ({} {}) has key times that do not increase ({} after {})", path, clip, node,
+                c.path, c.times[i], c.times[i - 1]);
+  }
+  for (size_t i = 0; i < c.values.size(); ++i)
+    FSKIN_CHECK(std::isfinite(c.values[i]), "{}: animation '{}' ({} {}) has value {}", path, clip, node, c.path,
+                c.values[i]);
+  if (c.path != "rotation") return;
+  const bool cubic = c.interpolation == "CUBICSPLINE";
+  for (size_t k = 0; k < c.times.size(); ++k) {
+    const size_t at = (cubic ? 3 * k + 1 : k) * 4;
+    const double norm = std::sqrt(c.values[at] * c.values[at] + c.values[at + 1] * c.values[at + 1] +
+                                  c.values[at + 2] * c.values[at + 2] + c.values[at + 3] * c.values[at + 3]);
+    FSKIN_CHECK(norm > 0.5 && norm < 2.0, "{}: animation '{}' ({} rotation) has a quaternion of length {:.3g} at {} s "
+                "(unit quaternions expected)", path, clip, node, norm, c.times[k]);
+  }
+}
+
 void apply(Trs& trs, const Channel& c, const std::vector<double>& v) {
   // An animated node with a matrix has no TRS to animate (glTF forbids it).
   if (c.path == "translation") trs.translation = {v[0], v[1], v[2]};
@@ -130,11 +174,7 @@ ImportedCharacter import_gltf(const std::string& path, const ImportOptions& opti
     FSKIN_CHECK(node.skin >= -1 && node.skin < static_cast<int>(model.skins.size()),
                 "{}: node {} refers to skin {} of {}", path, n, node.skin, model.skins.size());
   }
-  for (int n = 0; n < num_nodes; ++n) {
-    int steps = 0;
-    for (int a = parent[n]; a >= 0; a = parent[a])
-      FSKIN_CHECK(++steps <= num_nodes, "{}: the node tree has a cycle through node {}", path, n);
-  }
+  const auto parents_first = nodes_parents_first(model, parent, path);
 
   // The skin of the first skinned mesh node; meshes with other skins are dropped.
   std::vector<int> skinned;
@@ -168,12 +208,17 @@ ImportedCharacter import_gltf(const std::string& path, const ImportOptions& opti
     FSKIN_CHECK(node >= 0 && node < num_nodes, "{}: skin {} refers to node {} of {}", path, skin_index, node, num_nodes);
     slot_of[node] = static_cast<int>(i);
   }
+  // Each node's nearest joint ancestor, parents first: linear in the nodes.
+  std::vector<int> joint_above(num_nodes, -1);
+  for (int n : parents_first) {
+    const int a = parent[n];
+    if (a < 0) continue;
+    const auto it = slot_of.find(a);
+    joint_above[n] = it != slot_of.end() ? it->second : joint_above[a];
+  }
   for (int64_t i = 0; i < J; ++i) {
     joints.names.push_back(node_name(model, skin.joints[i]));
-    int p = -1;
-    for (int a = parent[skin.joints[i]]; a >= 0 && p < 0; a = parent[a])
-      if (slot_of.count(a)) p = slot_of[a];
-    joints.parent.push_back(p);
+    joints.parent.push_back(joint_above[skin.joints[i]]);
   }
   // Inverse bind matrices: identity when absent, glTF's default.
   joints.inverse_bind.assign(J, Matrix4::Identity());
@@ -223,9 +268,10 @@ ImportedCharacter import_gltf(const std::string& path, const ImportOptions& opti
           for (int k = 0; k < 4; ++k) {
             const double w = ws[4 * v + k];
             if (w == 0) continue;
-            const auto slot = static_cast<int64_t>(ids[4 * v + k]);
-            FSKIN_CHECK(slot >= 0 && slot < J, "{}: {} vertex {} refers to joint {} of a {}-joint skin", path, what, v,
-                        slot, J);
+            const double id = ids[4 * v + k];  // checked before the cast: a float NaN or 1e30 is no index
+            FSKIN_CHECK(id >= 0 && id < static_cast<double>(J) && id == std::floor(id),
+                        "{}: {} vertex {} refers to joint {} of a {}-joint skin", path, what, v, id, J);
+            const auto slot = static_cast<int64_t>(id);
             FSKIN_CHECK(w > 0 && std::isfinite(w), "{}: {} vertex {} has weight {}", path, what, v, w);
             soup.weights[(base + v) * J + order.index_of_slot[slot]] += w;
           }
@@ -237,7 +283,8 @@ ImportedCharacter import_gltf(const std::string& path, const ImportOptions& opti
           FSKIN_CHECK(i >= 0 && i < count, "{}: {} index {} out of range for {} vertices", path, what, i, count);
           soup.faces.push_back(base + static_cast<int64_t>(i));
         }
-      } else {
+      } else {  // non-indexed: every three vertices are a triangle
+        FSKIN_CHECK(count % 3 == 0, "{}: {} has no indices and {} vertices, not a multiple of 3", path, what, count);
         for (int64_t i = 0; i < count; ++i) soup.faces.push_back(base + i);
       }
       ++soup.parts;
@@ -271,15 +318,21 @@ ImportedCharacter import_gltf(const std::string& path, const ImportOptions& opti
       const size_t per_key = (c.interpolation == "CUBICSPLINE" ? 3 : 1) * c.components;
       FSKIN_CHECK(!c.times.empty() && c.values.size() == per_key * c.times.size(),
                   "{}: animation '{}' has {} keyframe times and {} values", path, name, c.times.size(), c.values.size());
+      check_keyframes(c, path, name, node_name(model, c.node));
       time_set.insert(c.times.begin(), c.times.end());
       channels.push_back(std::move(c));
     }
     if (channels.empty()) continue;
     const std::vector<double> times(time_set.begin(), time_set.end());
+    // Sampling costs key times x nodes: refuse what would take hours.
+    FSKIN_CHECK(static_cast<double>(times.size()) * num_nodes <= kMostSampledNodeTransforms,
+                "{}: animation '{}' has {} key times over {} nodes, beyond the {:g} node transforms fskin samples per "
+                "clip",
+                path, name, times.size(), num_nodes, kMostSampledNodeTransforms);
     const auto skinning_at = [&](size_t t) {
       auto locals = rest;
       for (const auto& c : channels) apply(locals[c.node], c, sample(c, times[t]));
-      const auto global = global_transforms(locals, parent);
+      const auto global = global_transforms(locals, parent, parents_first);
       std::vector<Matrix4> skinning(J);
       for (int64_t j = 0; j < J; ++j) {
         const int slot = order.slot_of[j];

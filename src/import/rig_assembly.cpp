@@ -20,6 +20,8 @@ namespace {
 // Coordinates beyond this are corrupt files, not characters (1e12 m is
 // beyond any unit mistake and far inside float32's range).
 constexpr double kLargestCoordinate = 1e12;
+// Clips move joints at most this many character sizes from the origin.
+constexpr double kFarthestJointInSizes = 1e4;
 
 }  // namespace
 
@@ -36,19 +38,31 @@ JointOrder order_joints(const std::string& path, const SourceJoints& joints, Bod
     std::set<std::string> unique(joints.names.begin(), joints.names.end());
     FSKIN_CHECK(unique.size() == joints.names.size(), "{}: two joints share a name; fskin needs unique names", path);
   }
-  // Parents first, otherwise in the source's order: a slot is taken once its
-  // parent has been (the source's own order when it already is topological).
+  // Parents first, otherwise in the source's order: breadth-first from the
+  // root with children in the source's order (the source's own order when it
+  // already is topological and breadth-first). Linear in the joints.
+  std::vector<std::vector<int>> children(J);
+  for (int64_t i = 0; i < J; ++i) {
+    FSKIN_CHECK(joints.parent[i] < J, "{}: joint '{}' has parent {} of {}", path, joints.names[i], joints.parent[i], J);
+    if (joints.parent[i] >= 0) children[joints.parent[i]].push_back(static_cast<int>(i));
+  }
   JointOrder order;
   order.index_of_slot.assign(J, -1);
-  while (static_cast<int64_t>(order.slot_of.size()) < J) {
-    const size_t before = order.slot_of.size();
+  const bool source_is_parents_first = [&] {
     for (int64_t i = 0; i < J; ++i)
-      if (order.index_of_slot[i] < 0 && (joints.parent[i] < 0 || order.index_of_slot[joints.parent[i]] >= 0)) {
-        order.index_of_slot[i] = static_cast<int64_t>(order.slot_of.size());
-        order.slot_of.push_back(static_cast<int>(i));
-      }
-    FSKIN_CHECK(order.slot_of.size() > before, "{}: the joint hierarchy has a cycle", path);
+      if (joints.parent[i] >= i) return false;
+    return true;
+  }();
+  if (source_is_parents_first) {
+    for (int64_t i = 0; i < J; ++i) order.slot_of.push_back(static_cast<int>(i));
+  } else {
+    for (int64_t i = 0; i < J; ++i)
+      if (joints.parent[i] < 0) order.slot_of.push_back(static_cast<int>(i));
+    for (size_t k = 0; k < order.slot_of.size(); ++k)
+      for (int child : children[order.slot_of[k]]) order.slot_of.push_back(child);
+    FSKIN_CHECK(static_cast<int64_t>(order.slot_of.size()) == J, "{}: the joint hierarchy has a cycle", path);
   }
+  for (int64_t j = 0; j < J; ++j) order.index_of_slot[order.slot_of[j]] = j;
   data.joint_names.clear();
   data.parents.clear();
   data.rest_joints = torch::zeros({J, 3});
@@ -72,6 +86,10 @@ void assemble_mesh(const std::string& path, const SkinnedSoup& soup, const Impor
   const auto J = static_cast<int64_t>(data.joint_names.size());
   const int64_t V_in = static_cast<int64_t>(soup.positions.size() / 3);
   FSKIN_CHECK(V_in > 0 && !soup.faces.empty(), "{}: the skinned meshes have no skinned triangles", path);
+  FSKIN_CHECK(soup.faces.size() % 3 == 0, "{}: the skinned meshes have {} corner indices, not whole triangles", path,
+              soup.faces.size());
+  for (const int64_t corner : soup.faces)
+    FSKIN_CHECK(corner >= 0 && corner < V_in, "{}: a triangle refers to vertex {} of {}", path, corner, V_in);
   for (size_t i = 0; i < soup.positions.size(); ++i)
     FSKIN_CHECK(std::isfinite(soup.positions[i]) && std::abs(soup.positions[i]) < kLargestCoordinate,
                 "{}: vertex {} of the skinned mesh has coordinate {:.3g} (finite and below {:g} in magnitude expected)",
@@ -149,6 +167,7 @@ ImportedClip make_clip(const std::string& path, const std::string& name, const s
                        const SkinningAt& skinning_at, const BodyModelData& data, std::vector<std::string>& notes) {
   const auto T = static_cast<int64_t>(times.size());
   const auto J = static_cast<int64_t>(data.joint_names.size());
+  FSKIN_CHECK(T >= 1, "{}: clip '{}' has no keyframes", path, name);
   auto bones = torch::zeros({T, J, 4, 4}, torch::kFloat64);
   auto bones_a = bones.accessor<double, 4>();
   for (int64_t t = 0; t < T; ++t) {
@@ -160,6 +179,13 @@ ImportedClip make_clip(const std::string& path, const std::string& name, const s
         for (int c = 0; c < 4; ++c) bones_a[t][j][r][c] = skinning[j](r, c);
     }
   }
+  // A joint carried more than 10^4 character sizes away is a corrupt clip
+  // (a translation of 1e30), not motion: refused before it becomes a pose.
+  const double size = character_size(data.v_template);
+  const double farthest = bones.index({"...", torch::indexing::Slice(0, 3), 3}).abs().max().item<double>();
+  FSKIN_CHECK(farthest <= kFarthestJointInSizes * size,
+              "{}: clip '{}' moves a joint {:.3g} m away, beyond {:g} times the character's size ({:.3g} m)", path,
+              name, farthest, kFarthestJointInSizes, size);
   const auto pose = pose_from_bone_transforms(data.parents, data.rest_joints, bones);
   ImportedClip clip;
   clip.name = name;
@@ -173,7 +199,6 @@ ImportedClip make_clip(const std::string& path, const std::string& name, const s
     std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
     if (steps[steps.size() / 2] > 0) clip.fps = 1.0 / steps[steps.size() / 2];
   }
-  const double size = character_size(data.v_template);
   if (pose.max_joint_drift > 1e-4 * size) {
     clip.poses.joint_translations = pose.joint_translations;
     notes.push_back(fmt::format("clip '{}' animates translations of non-root joints (up to {:.4g} m, {:.2g} % of the "

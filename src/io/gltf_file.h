@@ -39,7 +39,8 @@ class BufferWriter {
 };
 
 // Accessor `index` as doubles, `components` per element (normalised integers
-// mapped to [0, 1]); checks type and bounds, naming `path` and `what`.
+// mapped to [0, 1] or [-1, 1]), sparse substitutions applied; checks type,
+// counts and bounds with overflow-safe arithmetic, naming `path` and `what`.
 std::vector<double> read_accessor(const tinygltf::Model& model, int index, int type, const std::string& path,
                                   const std::string& what);
 
