@@ -22,6 +22,15 @@ void register_import(CLI::App& app) {
                   "also write every animation clip, back to back with its name, as one pose file .npz");
   cmd->add_flag("--keep-open-parts", opt->import.keep_open_parts,
                 "keep mesh parts that are not closed surfaces (training needs closed ones)");
+  cmd->add_option("--assimp-seconds", opt->import.assimp_seconds,
+                  "FBX, Collada and other assimp formats: the time assimp may take to read the file (in a child "
+                  "process, before fskin reads it)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--assimp-memory-mib", opt->import.assimp_memory_mib,
+                  "... and the memory it may take, in MiB")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   cmd->callback([opt] {
     const auto imported = import_character(opt->input, opt->import);
     const BodyModel model(imported.model, opt->input);

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -16,12 +17,17 @@
 
 #include "fskin/core/error.h"
 #include "fskin/geometry/character_size.h"
+#include "import/assimp_sandbox.h"
 #include "import/rig_assembly.h"
 
 namespace fskin {
 namespace {
 
 using Matrix4 = Eigen::Matrix4d;
+
+// Node transforms sampled per clip (key times x nodes) beyond which a file is
+// refused rather than sampled for hours.
+constexpr double kMostSampledNodeTransforms = 2e8;
 
 Matrix4 to_eigen(const aiMatrix4x4& m) {
   Matrix4 e;  // aiMatrix4x4 is row-major: a1..a4 is the first row
@@ -58,9 +64,11 @@ std::optional<double> metadata_number(const aiScene* scene, const char* key) {
 // coordinates to metres with the file's up axis on +Y and its front on +Z.
 Matrix4 fbx_to_metres_y_up(const std::string& path, const aiScene* scene, std::vector<std::string>& notes) {
   const auto axis = [&](const char* name, const char* sign_name, int fallback) {
-    const int a = static_cast<int>(metadata_number(scene, name).value_or(fallback));
+    const double value = metadata_number(scene, name).value_or(fallback);
+    FSKIN_CHECK(value == 0 || value == 1 || value == 2, "{}: the FBX axis system has {} = {} (0, 1 or 2 expected)",
+                path, name, value);
+    const int a = static_cast<int>(value);
     const double s = metadata_number(scene, sign_name).value_or(1.0) < 0 ? -1.0 : 1.0;
-    FSKIN_CHECK(a >= 0 && a <= 2, "{}: the FBX axis system has {} = {} (0, 1 or 2 expected)", path, name, a);
     return std::make_pair(a, s);
   };
   const auto [coord, coord_sign] = axis("CoordAxis", "CoordAxisSign", 0);
@@ -97,11 +105,28 @@ struct Node {
   std::string name;
 };
 
-// Nodes in depth-first pre-order (parents before children).
-void collect(const aiNode* node, int parent, std::vector<Node>& out) {
-  const int self = static_cast<int>(out.size());
-  out.push_back({node, parent, node->mName.length ? node->mName.C_Str() : "node_" + std::to_string(self)});
-  for (unsigned c = 0; c < node->mNumChildren; ++c) collect(node->mChildren[c], self, out);
+// Nodes in depth-first pre-order (parents before children), with an explicit
+// stack: a node chain may be as deep as the file has nodes.
+std::vector<Node> collect(const aiNode* root) {
+  std::vector<Node> out;
+  std::vector<std::pair<const aiNode*, int>> stack{{root, -1}};
+  while (!stack.empty()) {
+    const auto [node, parent] = stack.back();
+    stack.pop_back();
+    const int self = static_cast<int>(out.size());
+    out.push_back({node, parent, node->mName.length ? node->mName.C_Str() : "node_" + std::to_string(self)});
+    for (unsigned c = node->mNumChildren; c-- > 0;) stack.push_back({node->mChildren[c], self});
+  }
+  return out;
+}
+
+// The last key at or before t, for keys[0].mTime < t < keys[n - 1].mTime
+// (key times checked non-decreasing): a binary search, so sampling a clip
+// costs its key times x log(keys), not key times x keys.
+template <typename Key>
+unsigned last_key_at_or_before(const Key* keys, unsigned n, double t) {
+  const Key* after = std::upper_bound(keys, keys + n, t, [](double value, const Key& k) { return value < k.mTime; });
+  return std::min(static_cast<unsigned>(after - keys), n - 1) - 1;
 }
 
 Eigen::Vector3d lerp_key(const aiVectorKey* keys, unsigned n, double t, const Eigen::Vector3d& fallback) {
@@ -109,8 +134,7 @@ Eigen::Vector3d lerp_key(const aiVectorKey* keys, unsigned n, double t, const Ei
   const auto v = [&](unsigned i) { return Eigen::Vector3d(keys[i].mValue.x, keys[i].mValue.y, keys[i].mValue.z); };
   if (t <= keys[0].mTime) return v(0);
   if (t >= keys[n - 1].mTime) return v(n - 1);
-  unsigned i = 0;
-  while (i + 1 < n && keys[i + 1].mTime <= t) ++i;
+  const unsigned i = last_key_at_or_before(keys, n, t);
   const double span = keys[i + 1].mTime - keys[i].mTime;
   const double u = span > 0 ? (t - keys[i].mTime) / span : 0.0;
   return v(i) + u * (v(i + 1) - v(i));
@@ -124,24 +148,55 @@ Eigen::Quaterniond slerp_key(const aiQuatKey* keys, unsigned n, double t, const 
   };
   if (t <= keys[0].mTime) return q(0);
   if (t >= keys[n - 1].mTime) return q(n - 1);
-  unsigned i = 0;
-  while (i + 1 < n && keys[i + 1].mTime <= t) ++i;
+  const unsigned i = last_key_at_or_before(keys, n, t);
   const double span = keys[i + 1].mTime - keys[i].mTime;
   const double u = span > 0 ? (t - keys[i].mTime) / span : 0.0;
   return q(i).slerp(u, q(i + 1));
+}
+
+// Key times that never decrease, finite values, rotations of about unit
+// length (a zero quaternion has no direction).
+void check_keys(const aiNodeAnim* ch, const std::string& path, const std::string& clip) {
+  const std::string node = ch->mNodeName.C_Str();
+  const auto check_times = [&](const auto* keys, unsigned n, const char* what) {
+    for (unsigned k = 1; k < n; ++k)
+      FSKIN_CHECK(keys[k].mTime >= keys[k - 1].mTime, "{}: clip '{}' ({} {} keys) has key times that decrease ({} after {})",
+                  path, clip, node, what, keys[k].mTime, keys[k - 1].mTime);
+  };
+  check_times(ch->mPositionKeys, ch->mNumPositionKeys, "position");
+  check_times(ch->mRotationKeys, ch->mNumRotationKeys, "rotation");
+  check_times(ch->mScalingKeys, ch->mNumScalingKeys, "scaling");
+  for (unsigned k = 0; k < ch->mNumPositionKeys; ++k) {
+    const auto& v = ch->mPositionKeys[k].mValue;
+    FSKIN_CHECK(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z),
+                "{}: clip '{}' ({}) has a non-finite position key at tick {}", path, clip, node, ch->mPositionKeys[k].mTime);
+  }
+  for (unsigned k = 0; k < ch->mNumScalingKeys; ++k) {
+    const auto& v = ch->mScalingKeys[k].mValue;
+    FSKIN_CHECK(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z),
+                "{}: clip '{}' ({}) has a non-finite scaling key at tick {}", path, clip, node, ch->mScalingKeys[k].mTime);
+  }
+  for (unsigned k = 0; k < ch->mNumRotationKeys; ++k) {
+    const auto& q = ch->mRotationKeys[k].mValue;
+    const double norm = std::sqrt(double(q.w) * q.w + double(q.x) * q.x + double(q.y) * q.y + double(q.z) * q.z);
+    FSKIN_CHECK(norm > 0.5 && norm < 2.0, "{}: clip '{}' ({}) has a rotation key of length {:.3g} at tick {} (unit "
+                "quaternions expected)", path, clip, node, norm, ch->mRotationKeys[k].mTime);
+  }
 }
 
 }  // namespace
 
 ImportedCharacter import_with_assimp(const std::string& path, const ImportOptions& options) {
   FSKIN_CHECK(std::filesystem::exists(path), "{}: no such file", path);
+  FSKIN_CHECK(std::filesystem::is_regular_file(path), "{}: not a regular file", path);
+  // A file assimp crashes, loops or runs out of memory on is refused here,
+  // in a child process, before this process reads it (assimp_sandbox.h).
+  import_detail::probe_with_assimp(path, options);
   Assimp::Importer importer;
-  // Pivot helper nodes ($AssimpFbx$_...) would become joints of their own.
-  importer.SetPropertyBool(AI_CONFIG_IMPORT_FBX_PRESERVE_PIVOTS, false);
-  // A skin's bones without weights are still joints the clips move.
-  importer.SetPropertyBool(AI_CONFIG_IMPORT_REMOVE_EMPTY_BONES, false);
-  const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_SortByPType);
+  import_detail::configure_assimp(importer);
+  const aiScene* scene = importer.ReadFile(path, import_detail::assimp_read_flags());
   FSKIN_CHECK(scene && scene->mRootNode, "{}: cannot read it: {}", path, importer.GetErrorString());
+  import_detail::check_assimp_scene(scene, path);
   ImportedCharacter out;
 
   const auto extension = lower_extension(path);
@@ -154,8 +209,7 @@ ImportedCharacter import_with_assimp(const std::string& path, const ImportOption
     out.notes.push_back(fmt::format("{} files declare no unit or axes: taken as metres with +Y up", extension));
   }
 
-  std::vector<Node> nodes;
-  collect(scene->mRootNode, -1, nodes);
+  const std::vector<Node> nodes = collect(scene->mRootNode);
   const int num_nodes = static_cast<int>(nodes.size());
   std::map<std::string, std::vector<int>> by_name;
   for (int n = 0; n < num_nodes; ++n) by_name[nodes[n].name].push_back(n);
@@ -217,21 +271,21 @@ ImportedCharacter import_with_assimp(const std::string& path, const ImportOption
                                     "first mesh's bind matrix is used",
                                     bind_mismatch));
 
-  // Joints: the bones and every node between them and their lowest common ancestor.
-  std::vector<int> depth(num_nodes, 0);
+  // Joints: the bones and every node between them and their lowest common
+  // ancestor. Everything here is linear in the nodes (pre-order puts parents
+  // before children; a chain may be as deep as the file has nodes).
+  std::vector<int> bones_below(num_nodes, 0), depth(num_nodes, 0);
+  for (const auto& [n, m] : bone_bind) bones_below[n] = 1;
+  for (int n = num_nodes - 1; n > 0; --n) bones_below[nodes[n].parent] += bones_below[n];
   for (int n = 1; n < num_nodes; ++n) depth[n] = depth[nodes[n].parent] + 1;
-  const auto common_ancestor = [&](int a, int b) {
-    while (a != b) {
-      if (depth[a] >= depth[b]) a = nodes[a].parent;
-      else b = nodes[b].parent;
-    }
-    return a;
-  };
-  int top = bone_bind.begin()->first;
-  for (const auto& [n, m] : bone_bind) top = common_ancestor(top, n);
+  int top = 0;  // the deepest node above every bone
+  for (int n = 0; n < num_nodes; ++n)
+    if (bones_below[n] == static_cast<int>(bone_bind.size()) && depth[n] >= depth[top]) top = n;
   std::set<int> connecting;  // in pre-order
+  std::vector<char> walked(num_nodes, 0);
   for (int n : bone_order)
-    for (int a = n; a >= 0; a = nodes[a].parent) {
+    for (int a = n; a >= 0 && !walked[a]; a = nodes[a].parent) {
+      walked[a] = 1;
       if (!bone_bind.count(a)) connecting.insert(a);
       if (a == top) break;
     }
@@ -245,13 +299,15 @@ ImportedCharacter import_with_assimp(const std::string& path, const ImportOption
   import_detail::SourceJoints joints;
   std::map<int, int> slot_of_node;
   for (int n : joint_nodes) slot_of_node[n] = static_cast<int>(slot_of_node.size());
+  std::vector<int> joint_above(num_nodes, -1);  // each node's nearest joint ancestor
+  for (int n = 1; n < num_nodes; ++n) {
+    const int a = nodes[n].parent;
+    const auto it = slot_of_node.find(a);
+    joint_above[n] = it != slot_of_node.end() ? it->second : joint_above[a];
+  }
   for (int n : joint_nodes) {
     joints.names.push_back(nodes[n].name);
-    int p = -1;
-    if (n != top)
-      for (int a = nodes[n].parent; a >= 0 && p < 0; a = nodes[a].parent)
-        if (slot_of_node.count(a)) p = slot_of_node[a];
-    joints.parent.push_back(p);
+    joints.parent.push_back(n == top ? -1 : joint_above[n]);
     const auto bound = bone_bind.find(n);
     joints.inverse_bind.push_back(bound != bone_bind.end() ? bound->second : Matrix4(rest_global[n].inverse()));
   }
@@ -327,6 +383,10 @@ ImportedCharacter import_with_assimp(const std::string& path, const ImportOption
     if (tick_set.empty()) continue;
     for (double tick : tick_set)
       FSKIN_CHECK(std::isfinite(tick), "{}: clip '{}' has a key at time {}", path, name, tick);
+    for (const auto& [n, ch] : channel_of) check_keys(ch, path, name);
+    FSKIN_CHECK(static_cast<double>(tick_set.size()) * num_nodes <= kMostSampledNodeTransforms,
+                "{}: clip '{}' has {} key times over {} nodes, beyond the {:g} node transforms fskin samples per clip",
+                path, name, tick_set.size(), num_nodes, kMostSampledNodeTransforms);
     std::vector<double> ticks(tick_set.begin(), tick_set.end()), times;
     for (double tick : ticks) times.push_back(tick / ticks_per_second);
     std::vector<Matrix4> global(num_nodes);

@@ -44,6 +44,12 @@ struct ImportOptions {
   // Keep parts that are not closed surfaces (for looking at a rig or taking
   // its clips; training needs closed surfaces to tell inside from outside).
   bool keep_open_parts = false;
+  // assimp's readers can crash, loop or allocate without end on hostile
+  // files: assimp first reads the file in a child process limited to this
+  // wall-clock time and this much memory beyond the caller's, and the file
+  // is refused (naming it) if the child crashes or runs out of either.
+  double assimp_seconds = 120;
+  int64_t assimp_memory_mib = 4096;
 };
 
 // By extension: .glb / .gltf through import_gltf, anything else through
