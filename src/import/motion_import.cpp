@@ -3,9 +3,11 @@
 #include <torch/torch.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "fskin/body/smpl_skeleton.h"
@@ -16,6 +18,13 @@
 
 namespace fskin {
 namespace {
+
+// More joints than any motion-capture skeleton has.
+constexpr size_t kMostBvhJoints = 10'000;
+// Rotation channels beyond 100 turns are corrupt values, not motion.
+constexpr double kLargestRotationDegrees = 36'000;
+// Root positions beyond this many skeleton sizes are corrupt, not motion.
+constexpr double kFarthestRootInSizes = 1e4;
 
 struct BvhJoint {
   std::string name;
@@ -28,7 +37,10 @@ struct BvhJoint {
 // Hand-written: BVH is a small whitespace-separated format with no Debian library.
 class BvhReader {
  public:
-  explicit BvhReader(const std::string& path) : path_(path), in_(read_file(path)) {}
+  explicit BvhReader(const std::string& path) : path_(path), text_(read_file(path)), in_(text_) {
+    text_begin_ = text_.data();
+    text_size_ = text_.size();
+  }
 
   std::string word() {
     std::string w;
@@ -39,8 +51,8 @@ class BvhReader {
     const auto w = word();
     FSKIN_CHECK(w == what, "{}: expected '{}', found '{}'", path_, what, w);
   }
-  double number() {
-    const auto w = word();
+  double number() { return parse_number(word()); }
+  double parse_number(const std::string& w) const {
     try {
       size_t used = 0;
       const double v = std::stod(w, &used);
@@ -51,11 +63,38 @@ class BvhReader {
     }
   }
 
-  // JOINT/ROOT name { OFFSET x y z CHANNELS n ... children }
-  void joint(int parent, int& channel_count) {
+  // ROOT name { OFFSET x y z CHANNELS n ... children }, walked with a stack
+  // of open joints (no recursion: a hierarchy may nest as deep as the file
+  // is long), at most kMostBvhJoints.
+  void hierarchy(int& channel_count) {
+    std::vector<int> open;
+    open_joint(-1, channel_count, open);
+    while (!open.empty()) {
+      const auto w = word();
+      if (w == "}") {
+        open.pop_back();
+      } else if (w == "JOINT") {
+        open_joint(open.back(), channel_count, open);
+      } else if (w == "End") {
+        expect("Site");
+        expect("{");
+        expect("OFFSET");
+        for (int a = 0; a < 3; ++a) number();
+        expect("}");
+      } else {
+        fail("{}: unexpected '{}' in joint '{}'", path_, w, joints[open.back()].name);
+      }
+    }
+  }
+
+  void open_joint(int parent, int& channel_count, std::vector<int>& open) {
+    FSKIN_CHECK(joints.size() < kMostBvhJoints, "{}: more than {} joints; not a skeleton fskin reads", path_,
+                kMostBvhJoints);
     BvhJoint j;
     j.name = word();
     j.parent = parent;
+    FSKIN_CHECK(names_.insert(j.name).second, "{}: two joints are named '{}'; joint names must be unique", path_,
+                j.name);
     expect("{");
     expect("OFFSET");
     for (int a = 0; a < 3; ++a) j.offset[a] = number();
@@ -71,30 +110,16 @@ class BvhReader {
     }
     j.first_channel = channel_count;
     channel_count += static_cast<int>(j.channels.size());
-    const int index = static_cast<int>(joints.size());
-    joints.push_back(j);
-    for (;;) {
-      const auto w = word();
-      if (w == "}") return;
-      if (w == "JOINT") {
-        joint(index, channel_count);
-      } else if (w == "End") {
-        expect("Site");
-        expect("{");
-        expect("OFFSET");
-        for (int a = 0; a < 3; ++a) number();
-        expect("}");
-      } else {
-        fail("{}: unexpected '{}' in joint '{}'", path_, w, joints[index].name);
-      }
-    }
+    open.push_back(static_cast<int>(joints.size()));
+    joints.push_back(std::move(j));
   }
 
   void read() {
     expect("HIERARCHY");
     expect("ROOT");
     int channels = 0;
-    joint(-1, channels);
+    hierarchy(channels);
+    FSKIN_CHECK(channels >= 1, "{}: the hierarchy has no channels, so its motion moves nothing", path_);
     FSKIN_CHECK(word() == "MOTION", "{}: expected MOTION after the hierarchy (one ROOT only)", path_);
     expect("Frames:");
     const double frames = number();
@@ -102,11 +127,42 @@ class BvhReader {
     expect("Frame");
     expect("Time:");
     frame_time = number();
-    FSKIN_CHECK(frame_time > 0, "{}: Frame Time {} must be positive", path_, frame_time);
-    values.resize(static_cast<size_t>(frames) * channels);
-    for (auto& v : values) v = number();
+    FSKIN_CHECK(frame_time >= 1e-6 && frame_time <= 1e3, "{}: Frame Time {} s is not a frame interval (1 us to 1000 s)",
+                path_, frame_time);
+    // Each value takes at least two bytes ("0 "): a count the rest of the
+    // file cannot hold is refused before anything is allocated.
+    const auto position = in_.tellg();
+    const double bytes_left = static_cast<double>(text_size_) - static_cast<double>(position);
+    FSKIN_CHECK(frames * channels <= bytes_left / 2 + channels,
+                "{}: 'Frames: {:.0f}' of {} channels needs at least {:.3g} bytes, but {:.0f} follow", path_, frames,
+                channels, 2 * frames * channels, bytes_left);
     num_channels = channels;
     num_frames = static_cast<int64_t>(frames);
+    // One line per frame with exactly one value per channel, as Frames: says.
+    int64_t line_number = 1 + std::count(text_begin_, text_begin_ + static_cast<std::ptrdiff_t>(position), '\n');
+    std::string line;
+    std::getline(in_, line);  // the rest of the Frame Time line
+    FSKIN_CHECK(line.find_first_not_of(" \t\r") == std::string::npos, "{}:{}: unexpected '{}' after Frame Time", path_,
+                line_number, line);
+    values.reserve(static_cast<size_t>(num_frames) * channels);
+    int64_t frame = 0;
+    while (std::getline(in_, line)) {
+      ++line_number;
+      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+      FSKIN_CHECK(frame < num_frames, "{}:{}: a motion line beyond the {} frames 'Frames:' declares", path_,
+                  line_number, num_frames);
+      std::istringstream fields(line);
+      int count = 0;
+      for (std::string w; fields >> w; ++count) {
+        FSKIN_CHECK(count < channels, "{}:{}: frame {} has more than the hierarchy's {} channel values", path_,
+                    line_number, frame, channels);
+        values.push_back(parse_number(w));
+      }
+      FSKIN_CHECK(count == channels, "{}:{}: frame {} has {} values for the hierarchy's {} channels", path_,
+                  line_number, frame, count, channels);
+      ++frame;
+    }
+    FSKIN_CHECK(frame == num_frames, "{}: 'Frames: {}' but the file holds {} motion lines", path_, num_frames, frame);
   }
 
   std::vector<BvhJoint> joints;
@@ -117,7 +173,11 @@ class BvhReader {
 
  private:
   std::string path_;
+  std::string text_;
   std::istringstream in_;
+  const char* text_begin_ = nullptr;
+  size_t text_size_ = 0;
+  std::set<std::string> names_;
 };
 
 Eigen::Matrix3d axis_rotation(char axis, double degrees) {
@@ -204,6 +264,20 @@ ImportedMotion import_bvh(const std::string& path, const Skeleton& model,
   for (int64_t j = 0; j < J; ++j)
     for (int a = 0; a < 3; ++a) model_points[j][a] = model_rest.data_ptr<double>()[3 * j + a];
   const double bvh_size = B > 1 ? extent_of(rest) : 0.0;
+  for (int64_t b = 0; b < B; ++b) {
+    const auto& joint = bvh.joints[b];
+    for (size_t c = 0; c < joint.channels.size(); ++c) {
+      const bool rotation = joint.channels[c][1] == 'r';
+      const double limit = rotation ? kLargestRotationDegrees : kFarthestRootInSizes * bvh_size;
+      if (!rotation && bvh_size <= 0) continue;  // one joint: no size to compare with
+      for (int64_t t = 0; t < T; ++t) {
+        const double value = bvh.values[t * bvh.num_channels + joint.first_channel + c];
+        FSKIN_CHECK(std::abs(value) <= limit, "{}: frame {} gives joint '{}' {} = {:.4g}, beyond {:g}{}", path, t,
+                    joint.name, joint.channels[c], value, limit,
+                    rotation ? " degrees" : fmt::format(" ({:g} skeleton sizes)", kFarthestRootInSizes));
+      }
+    }
+  }
   const double ratio = bvh_size > 0 ? extent_of(model_points) / bvh_size : 1.0;
   out.notes.push_back(fmt::format("root translation scaled by {:.4g} (model skeleton size / BVH skeleton size)", ratio));
 
@@ -277,6 +351,20 @@ ImportedMotion import_amass(const std::string& path, const Skeleton& model) {
   }
   out.poses.poses = poses.contiguous();
   out.poses.trans = npz.contains("trans") ? npz.tensor("trans").to(torch::kFloat32) : torch::zeros({T, 3});
+  // Axis-angle beyond 100 turns and a root beyond 10^4 skeleton sizes are
+  // corrupt values, not motion.
+  const double largest_angle = poses.numel() ? poses.abs().max().item<double>() : 0.0;
+  FSKIN_CHECK(largest_angle <= 200 * M_PI, "{}: 'poses' holds an angle of {:.4g} rad (beyond 100 turns)", path,
+              largest_angle);
+  const double skeleton_size = (std::get<0>(model.rest_joints.max(0)) - std::get<0>(model.rest_joints.min(0)))
+                                   .max()
+                                   .item<double>();
+  if (out.poses.trans.numel() && skeleton_size > 0) {
+    const double farthest = out.poses.trans.abs().max().item<double>();
+    FSKIN_CHECK(farthest <= kFarthestRootInSizes * skeleton_size,
+                "{}: 'trans' moves the root {:.4g} m, beyond {:g} times the model's skeleton size ({:.3g} m)", path,
+                farthest, kFarthestRootInSizes, skeleton_size);
+  }
   out.poses.joint_names = model.joint_names;
   out.poses.validate(path, J, model.joint_names);
   return out;
