@@ -14,6 +14,7 @@
 #include "fskin/core/error.h"
 #include "fskin/training/checkpoint.h"
 #include "fskin/training/trainer.h"
+#include "fskin/training/run_lock.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/util/free_cores.h"
 #include "fskin/util/progress.h"
@@ -154,8 +155,10 @@ void AvatarTrainOptions::validate() const {
               "avatar train: mask box fraction must be within [0, 1], got {}", mask_box_fraction);
   FSKIN_CHECK(decay_fraction >= 0 && decay_fraction <= 1 && decay_factor > 0 && decay_factor <= 1,
               "avatar train: decay fraction must be within [0, 1] and decay factor within (0, 1]");
-  FSKIN_CHECK(learning_rate > 0 && huber_delta > 0 && opacity_weight >= 0,
-              "avatar train: learning rate and Huber delta must be > 0 and the opacity weight >= 0");
+  FSKIN_CHECK(learning_rate > 0 && learning_rate <= 1, "avatar train: the learning rate {} must be in (0, 1]",
+              learning_rate);
+  FSKIN_CHECK(std::isfinite(huber_delta) && huber_delta > 0 && std::isfinite(opacity_weight) && opacity_weight >= 0,
+              "avatar train: the Huber delta must be > 0 and the opacity weight >= 0 (finite)");
   FSKIN_CHECK(background == "dataset" || background == "white" || background == "black" || background == "random",
               "avatar train: background must be dataset, white, black or random, got '{}'", background);
   FSKIN_CHECK(occupancy_every >= 1 && occupancy_warmup >= 0 && checkpoint_every >= 1 && log_every >= 1,
@@ -166,6 +169,8 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
   requested.validate();
   AvatarTrainOptions options = requested;
   const std::string run_dir = requested.out_dir;
+  check_output_apart_from_input(run_dir, requested.data_dir, "avatar train");
+  const RunLock lock(run_dir);  // one writer per run, before the run is read or written
   const auto config_file = config_path(run_dir);
   if (fs::exists(config_file)) {
     FSKIN_CHECK(requested.resume, "{} already holds an avatar run; pass --resume to continue it or use another --out",
@@ -180,7 +185,7 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
   const ImageDataset data(options.data_dir);
   const auto split = data.load_split("train");
   FSKIN_CHECK(split.size() > 0, "{}: the train split has no images", options.data_dir);
-  fs::create_directories(run_dir);
+  create_output_directory(run_dir);
   write_file_atomically(config_file, options_json(options).dump(2) + "\n");
   data.character().save((fs::path(run_dir) / "canonical.npz").string());
 
@@ -217,6 +222,10 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
   };
 
   const auto log_file = (fs::path(run_dir) / "log.jsonl").string();
+  // What a killed write left behind, and log lines past the checkpoint.
+  remove_stale_temporaries(run_dir);
+  if (options.resume) keep_log_through_step(log_file, step);
+  else write_file_atomically(log_file, std::string());
   std::ofstream log(log_file, std::ios::app);
   FSKIN_CHECK(log.good(), "avatar train: cannot append to {}", log_file);
   AvatarTrainSummary summary;
@@ -275,6 +284,10 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
     // eq. 20 (Huber on colour) + eq. 21 (L1 on opacity against the mask).
     const auto colour_loss = torch::huber_loss(color, target, at::Reduction::Mean, options.huber_delta);
     const auto loss = colour_loss + options.opacity_weight * (opacity - mask).abs().mean();
+    FSKIN_CHECK(std::isfinite(loss.item<double>()),
+                "{}: the loss became {} at step {} (learning rate {:g}); training stopped and the last checkpoint "
+                "(step {}) is kept: resume with a lower --lr",
+                run_dir, loss.item<double>(), step + 1, options.learning_rate, saved);
     adam.zero_grad();
     if (loss.requires_grad()) {
       loss.backward();

@@ -147,6 +147,14 @@ std::string read_checkpoint_payload(const std::string& path) {
 }
 
 namespace {
+// LibTorch's errors carry a C++ stack trace that says nothing to a user.
+std::string first_line(const std::string& text) { return text.substr(0, text.find('\n')); }
+
+std::string message_of(const std::exception& e) {
+  if (const auto* c10_error = dynamic_cast<const c10::Error*>(&e)) return c10_error->what_without_backtrace();
+  return e.what();
+}
+
 // Calls `read` on an intact archive; an error there means the file does not
 // fit this model (another model or fskin version), not damage.
 void read_intact(const std::string& path, torch::serialize::InputArchive& archive, const ArchiveReader& read) {
@@ -166,8 +174,8 @@ void load_checkpoint(const std::string& path, const ArchiveReader& read) {
   const std::string payload = read_checkpoint_payload(path);
   try {
     archive.load_from(payload.data(), payload.size(), torch::kCPU);  // a GPU-trained run loads anywhere
-  } catch (const std::exception&) {
-    fail("{}: damaged checkpoint (its archive does not load)", path);
+  } catch (const std::exception& e) {
+    fail("{}: damaged checkpoint (its archive does not load: {})", path, first_line(message_of(e)));
   }
   read_intact(path, archive, read);
 }
@@ -179,7 +187,7 @@ std::optional<std::string> load_latest_checkpoint(const std::string& dir, const 
       const std::string payload = read_checkpoint_payload(path);
       archive.load_from(payload.data(), payload.size(), torch::kCPU);  // a GPU-trained run loads anywhere
     } catch (const std::exception& e) {
-      std::fprintf(stderr, "fskin: skipping damaged checkpoint: %s\n", e.what());
+      std::fprintf(stderr, "fskin: skipping damaged checkpoint: %s\n", first_line(message_of(e)).c_str());
       continue;
     }
     // Falling back to an older checkpoint when an intact one does not fit

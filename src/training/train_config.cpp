@@ -144,8 +144,8 @@ void TrainConfig::validate() const {
                   surface_points + uniform_points >= 1,
               "config: batch of {} frames x ({} + {}) points is empty", frames_per_batch, surface_points,
               uniform_points);
-  FSKIN_CHECK(learning_rate > 0 && std::isfinite(learning_rate), "config: learning_rate {} must be positive",
-              learning_rate);
+  FSKIN_CHECK(learning_rate > 0 && learning_rate <= 1, "config: learning_rate {} must be in (0, 1] (Adam's steps are "
+              "about this size; the default is 1e-3)", learning_rate);
   FSKIN_CHECK(grad_clip >= 0 && bootstrap_epochs >= 0 && joint_weight_loss_weight >= 0,
               "config: grad_clip, bootstrap_epochs and joint_weight_loss_weight must be >= 0");
   FSKIN_CHECK(skinning_prior_steps >= 0, "config: skinning_prior_steps {} must be >= 0", skinning_prior_steps);

@@ -12,6 +12,7 @@
 #include "fskin/data/thin_parts.h"
 #include "fskin/evaluation/evaluation_frame.h"
 #include "fskin/training/dataset_source.h"
+#include "fskin/util/atomic_file.h"
 
 namespace fskin {
 namespace {
@@ -76,6 +77,7 @@ TrainRunResult train_run(const TrainRunRequest& request,
   for (const auto& s : request.settings) config.set(s);
   config.validate();
   FSKIN_CHECK(!config.data.empty(), "train: no --data given (and no saved run config in {})", request.out);
+  check_output_apart_from_input(request.out, config.data, "train");
 
   const auto dataset = Dataset::load(config.data, "train");
   // On --resume too: the grid is a function of the settings and the data, so

@@ -17,6 +17,7 @@
 #include "fskin/losses/canonical_sparsity.h"
 #include "fskin/losses/skinning_prior.h"
 #include "fskin/training/checkpoint.h"
+#include "fskin/training/run_lock.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/util/free_cores.h"
 #include "fskin/util/progress.h"
@@ -119,22 +120,6 @@ void check_parameter_groups(OccupancyModel& model, const std::vector<OccupancyMo
   FSKIN_CHECK(grouped == all, "train: the model's parameter groups hold {} of its {} parameters", grouped, all);
 }
 
-// On resume the log keeps only the steps the checkpoint contains, so a run
-// killed after its last checkpoint does not log those steps twice.
-void truncate_log(const std::string& path, int64_t step) {
-  if (!fs::exists(path)) return;
-  std::istringstream in(read_file(path));
-  std::string kept, line;
-  while (std::getline(in, line)) {
-    try {
-      if (nlohmann::json::parse(line).at("step").get<int64_t>() <= step) kept += line + "\n";
-    } catch (const nlohmann::json::exception&) {
-      // A line cut by a kill: dropped.
-    }
-  }
-  write_file_atomically(path, kept);
-}
-
 struct BestScore {
   int64_t step = -1;
   double iou_bbox = 0, iou_surf = 0;
@@ -173,7 +158,7 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
   config.validate();
   FSKIN_CHECK(!options.run_dir.empty(), "train: no run directory given");
   FSKIN_CHECK(source.num_frames() > 0, "train: the training data has no frames");
-  fs::create_directories(options.run_dir);
+  const RunLock lock(options.run_dir);  // one writer per run, before anything is written
   write_file_atomically(config_path(options.run_dir), config.to_json());
 
   torch::manual_seed(config.seed);
@@ -228,8 +213,8 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
   std::optional<BestScore> best;
   remove_stale_temporaries(options.run_dir);
   if (resuming) {
-    truncate_log(log_file, step);
-    if (fs::exists(validation_file)) truncate_log(validation_file, step);
+    keep_log_through_step(log_file, step);
+    if (fs::exists(validation_file)) keep_log_through_step(validation_file, step);
     best = read_best(options.run_dir);
   } else {
     write_file_atomically(log_file, std::string());
@@ -305,6 +290,11 @@ TrainResult train(const TrainConfig& config, const BatchSource& source, const Tr
     const auto* values = logged.data_ptr<double>();
     const double bce_value = values[0], bootstrap_value = values[1], sparsity_value = values[2];
     const double iou = values[4] == 0 ? 1.0 : values[3] / values[4];  // iou.h's convention
+    FSKIN_CHECK(std::isfinite(bce_value + bootstrap_value + sparsity_value),
+                "{}: the loss became {} at step {} (learning rate {:g}); training stopped and the last checkpoint{} is "
+                "kept: lower learning_rate (--set learning_rate=...) and resume",
+                options.run_dir, bce_value + bootstrap_value + sparsity_value, step, config.learning_rate,
+                saved_step >= 0 ? fmt::format(" (step {})", saved_step) : std::string(" (none yet)"));
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
     if (step == result.first_step + 1) result.first_loss = bce_value;
     result.last_loss = bce_value;
