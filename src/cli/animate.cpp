@@ -43,7 +43,7 @@ struct RunPoses {
     RunPoses r{TrainedRun::load(run_dir, data, {}, device), {}, PoseSet::load(pose_path), {}};
     r.options = meshing_options(flags, r.run.config);
     r.bones = DatasetPosing::load(r.run.data_dir, body_model).bone_transforms(r.poses, pose_path);
-    std::filesystem::create_directories(out);
+    create_output_directory(out);
     return r;
   }
 };

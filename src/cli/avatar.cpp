@@ -173,7 +173,7 @@ void register_avatar(CLI::App& app) {
     if (render->turntable > 0) {
       const int64_t i = indices[0];
       const auto frame = trained.avatar->pose(bones[i]);
-      fs::create_directories(render->out);
+      create_output_directory(render->out);
       // Turn the camera about the vertical axis through the posed box's centre.
       const auto& g = frame.grid;
       const Eigen::Vector3d centre(0.5 * (g.lower[0] + g.upper[0]), 0.5 * (g.lower[1] + g.upper[1]),

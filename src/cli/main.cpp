@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <thread>
 
 #include "cli/commands.h"
@@ -57,6 +58,14 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const fskin::Error& e) {
     std::fprintf(stderr, "fskin: error: %s\n", e.what());
+    return 1;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A path the environment refuses (permissions, a full disk, a file in
+    // the way): the user's to fix, named, not an internal error.
+    std::fprintf(stderr, "fskin: error: %s: %s\n", e.path1().c_str(), e.code().message().c_str());
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "fskin: error: out of memory (the input asks for more than this machine has)\n");
     return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "fskin: internal error: %s\n", e.what());

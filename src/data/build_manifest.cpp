@@ -9,7 +9,7 @@ namespace fskin {
 
 BuildManifest::BuildManifest(const std::string& dir, nlohmann::json manifest) : manifest_(std::move(manifest)) {
   namespace fs = std::filesystem;
-  fs::create_directories(dir);
+  create_output_directory(dir);
   path_ = (fs::path(dir) / "manifest.json").string();
   if (fs::exists(path_)) {
     nlohmann::json previous;

@@ -37,7 +37,7 @@ void MeshAnimation::validate(const std::string& context) const {
   FSKIN_CHECK(frames.size(0) > 0 && frames.size(1) > 0,
               "{}: frames {} must hold at least one frame of at least one vertex", context,
               shape_string(frames.sizes()));
-  FSKIN_CHECK(fps > 0 && std::isfinite(fps), "{}: fps must be positive, got {}", context, fps);
+  FSKIN_CHECK(fps >= 1e-3 && fps <= 1e5, "{}: fps {} is not a frame rate (1e-3 to 1e5 expected)", context, fps);
   for (int64_t t = 0; t < frames.size(0); ++t) {
     const Mesh mesh{frames[t], faces, colors};
     mesh.validate(fmt::format("{}: frame {}", context, t));

@@ -3,7 +3,10 @@
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 
 #include "fskin/core/error.h"
@@ -25,7 +28,20 @@ void Image::paste(const Image& tile, int x, int y) {
     std::memcpy(pixel(x, y + row), tile.pixel(0, row), 3 * static_cast<size_t>(tile.width));
 }
 
+namespace {
+
+// fskin writes PNG only: a file named .jpg holding PNG bytes misleads every
+// viewer and tool that trusts extensions.
+void check_png_name(const std::string& path) {
+  auto extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+  FSKIN_CHECK(extension == ".png", "{}: fskin writes PNG images; name the file .png (not '{}')", path, extension);
+}
+
+}  // namespace
+
 void write_png(const std::string& path, const Image& image) {
+  check_png_name(path);
   FSKIN_CHECK(image.width > 0 && image.height > 0 &&
                   image.rgb.size() == 3 * static_cast<size_t>(image.width) * image.height,
               "{}: cannot write an empty or inconsistent {}x{} image", path, image.width,
@@ -42,6 +58,7 @@ void write_png(const std::string& path, const Image& image) {
 }
 
 void write_png_gray(const std::string& path, int width, int height, const std::vector<uint8_t>& gray) {
+  check_png_name(path);
   FSKIN_CHECK(width > 0 && height > 0 && gray.size() == static_cast<size_t>(width) * height,
               "{}: cannot write an empty or inconsistent {}x{} grey image", path, width, height);
   std::string bytes;

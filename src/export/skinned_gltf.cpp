@@ -21,7 +21,7 @@ void SkinnedCharacter::validate(const std::string& context) const {
   FSKIN_CHECK(skeleton.num_joints() <= 65535, "{}: {} joints do not fit glTF's 16-bit joint indices", context,
               skeleton.num_joints());
   if (animation.size() > 0) animation.validate(context + ": animation", skeleton.num_joints());
-  FSKIN_CHECK(fps > 0, "{}: fps {} must be positive", context, fps);
+  FSKIN_CHECK(fps >= 1e-3 && fps <= 1e5, "{}: fps {} is not a frame rate (1e-3 to 1e5 expected)", context, fps);
   FSKIN_CHECK(influences >= 0, "{}: influences {} must be >= 0 (0: every joint)", context, influences);
 }
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <map>
@@ -289,8 +290,8 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
     for (const auto& item : plan)
       if (item.split == split) items.push_back(&item);
     const fs::path split_dir = dir / split;
-    fs::create_directories(split_dir / "images");
-    fs::create_directories(split_dir / "masks");
+    create_output_directory((split_dir / "images").string());
+    create_output_directory((split_dir / "masks").string());
     remove_stale_temporaries((split_dir / "images").string());
     remove_stale_temporaries((split_dir / "masks").string());
     std::vector<PinholeCamera> cameras;
@@ -359,6 +360,52 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
   return summary;
 }
 
+namespace {
+
+// Each camera must have the subject in front of it and near its image: the
+// subject's centre (the canonical vertices' mean carried by the bones, each
+// by its share of the weights) projected with the image's camera.
+void check_cameras_see_the_subject(const ImageSplit& split, const AvatarCharacter& character,
+                                   const std::string& camera_path) {
+  if (split.size() == 0) return;
+  const auto centre = character.vertices.to(torch::kFloat64).mean(0);          // [3]
+  const auto share = character.weights.to(torch::kFloat64).mean(0);            // [J]
+  const auto bones = split.bone_transforms.to(torch::kFloat64);               // [N, J, 4, 4]
+  const auto moved = torch::matmul(bones.narrow(2, 0, 3).narrow(3, 0, 3), centre) +
+                     bones.narrow(2, 0, 3).select(3, 3);                       // [N, J, 3]
+  const auto posed = (moved * share.view({1, -1, 1})).sum(1) / share.sum();   // [N, 3]
+  const auto a = posed.accessor<double, 2>();
+  for (int64_t i = 0; i < split.size(); ++i) {
+    const auto& camera = split.cameras[i];
+    const Eigen::Vector3d world(a[i][0], a[i][1], a[i][2]);
+    const Eigen::Vector3d in_camera =
+        camera.extrinsic.topLeftCorner<3, 3>() * world + camera.extrinsic.topRightCorner<3, 1>();
+    FSKIN_CHECK(in_camera.z() > 0, "{}: camera {} has the subject behind it (its centre at depth {:.3g})", camera_path,
+                i, in_camera.z());
+    const Eigen::Vector2d pixel = camera.project(world);
+    FSKIN_CHECK(pixel.x() > -camera.width && pixel.x() < 2.0 * camera.width && pixel.y() > -camera.height &&
+                    pixel.y() < 2.0 * camera.height,
+                "{}: camera {} does not see the subject (its centre projects to pixel ({:.4g}, {:.4g}), far outside the "
+                "{}x{} image)",
+                camera_path, i, pixel.x(), pixel.y(), camera.width, camera.height);
+  }
+}
+
+// A split whose masks are all empty has no subject to learn; some empty
+// masks (the subject out of frame) are reported.
+void check_masks_hold_a_subject(const ImageSplit& split, const std::string& mask_dir) {
+  if (split.size() == 0) return;
+  const auto subject_pixels = (split.masks > 127).flatten(1).sum(1);
+  const int64_t empty = (subject_pixels == 0).sum().item<int64_t>();
+  FSKIN_CHECK(empty < split.size(), "{}: all {} masks are empty (no pixel above 127): there is no subject to learn",
+              mask_dir, split.size());
+  if (empty > 0)
+    std::fprintf(stderr, "fskin: warning: %s: %lld of %lld masks are empty (no subject in view)\n", mask_dir.c_str(),
+                 static_cast<long long>(empty), static_cast<long long>(split.size()));
+}
+
+}  // namespace
+
 std::vector<PinholeCamera> load_cameras(const std::string& camera_path, int64_t n) {
   FSKIN_CHECK(fs::exists(camera_path), "{}: missing", camera_path);
   std::vector<PinholeCamera> cameras;
@@ -420,6 +467,9 @@ ImageDataset::ImageDataset(std::string dir) : dir_(std::move(dir)) {
                 manifest_path);
     const auto bg = manifest.at("background").get<std::vector<double>>();
     FSKIN_CHECK(bg.size() == 3, "{}: background must have 3 components", manifest_path);
+    for (const double c : bg)
+      FSKIN_CHECK(c >= 0 && c <= 1, "{}: background components must be within [0, 1] (linear RGB), got {}",
+                  manifest_path, c);
     std::copy(bg.begin(), bg.end(), background_.begin());
     splits_ = manifest.at("splits").get<std::vector<std::string>>();
     for (const auto& split : splits_) {
@@ -478,6 +528,8 @@ ImageSplit ImageDataset::load_split(const std::string& split) const {
     FSKIN_CHECK(mw == W && mh == H, "{}: {}x{} pixels, but {} says {}x{}", mask_path, mw, mh, camera_path, W, H);
     std::memcpy(out.masks[i].data_ptr<uint8_t>(), mask.data(), mask.size());
   }
+  check_cameras_see_the_subject(out, character_, camera_path);
+  check_masks_hold_a_subject(out, (split_dir / "masks").string());
   return out;
 }
 

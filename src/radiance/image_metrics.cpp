@@ -23,6 +23,7 @@ void check_pair(const torch::Tensor& image, const torch::Tensor& reference, cons
 double psnr(const torch::Tensor& image, const torch::Tensor& reference) {
   check_pair(image, reference, "psnr");
   const double mse = (image.to(torch::kFloat64) - reference.to(torch::kFloat64)).pow(2).mean().item<double>();
+  FSKIN_CHECK(std::isfinite(mse), "psnr: the images hold non-finite values (a diverged model renders NaN)");
   return mse > 0 ? -10.0 * std::log10(mse) : std::numeric_limits<double>::infinity();
 }
 

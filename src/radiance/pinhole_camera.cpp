@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "fskin/core/error.h"
@@ -71,6 +72,16 @@ void PinholeCamera::validate(const std::string& context) const {
               "{}: intrinsic must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]]", context);
   FSKIN_CHECK(intrinsic(0, 0) > 0 && intrinsic(1, 1) > 0, "{}: focal lengths must be positive, got {} and {}",
               context, intrinsic(0, 0), intrinsic(1, 1));
+  // A focal length of 10^4 image sides is a field of view of 0.006 degrees:
+  // beyond it the value is corrupt, not a lens.
+  const double side = std::max(width, height);
+  FSKIN_CHECK(intrinsic(0, 0) <= 1e4 * side && intrinsic(1, 1) <= 1e4 * side,
+              "{}: focal lengths {:.4g} and {:.4g} pixels are beyond 10^4 times the {}x{} image", context,
+              intrinsic(0, 0), intrinsic(1, 1), width, height);
+  FSKIN_CHECK(std::abs(intrinsic(0, 1)) <= intrinsic(0, 0) && std::abs(intrinsic(0, 2)) <= 10 * side &&
+                  std::abs(intrinsic(1, 2)) <= 10 * side,
+              "{}: skew {:.4g} or principal point ({:.4g}, {:.4g}) is far outside the {}x{} image", context,
+              intrinsic(0, 1), intrinsic(0, 2), intrinsic(1, 2), width, height);
   FSKIN_CHECK(extrinsic.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)),
               "{}: extrinsic's last row must be [0, 0, 0, 1]", context);
   const Eigen::Matrix3d rotation = extrinsic.topLeftCorner<3, 3>();

@@ -3,6 +3,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -14,11 +15,35 @@
 
 namespace fskin {
 
+void create_output_directory(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(dir, ec)) return;
+  fs::create_directories(dir, ec);
+  if (ec) fail("{}: cannot create the directory: {}", dir, ec.message());
+  FSKIN_CHECK(fs::is_directory(dir, ec), "{}: cannot create the directory: a file of that name is in the way", dir);
+}
+
+void check_output_apart_from_input(const std::string& output, const std::string& input, const std::string& command) {
+  namespace fs = std::filesystem;
+  if (output.empty() || input.empty()) return;
+  std::error_code ec;
+  const fs::path out = fs::weakly_canonical(output, ec), in = fs::weakly_canonical(input, ec);
+  if (ec) return;
+  const auto inside = [](const fs::path& inner, const fs::path& outer) {
+    const auto mismatch = std::mismatch(outer.begin(), outer.end(), inner.begin(), inner.end());
+    return mismatch.first == outer.end();
+  };
+  FSKIN_CHECK(!inside(out, in) && !inside(in, out),
+              "{}: the output {} {} the input {}; write it somewhere else", command, output,
+              out == in ? "is" : inside(out, in) ? "lies inside" : "holds", input);
+}
+
 void write_file_atomically(const std::string& path,
                            const std::function<void(std::ostream&)>& write) {
   namespace fs = std::filesystem;
   const fs::path target(path);
-  if (target.has_parent_path()) fs::create_directories(target.parent_path());
+  if (target.has_parent_path()) create_output_directory(target.parent_path().string());
   const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
   try {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
@@ -62,6 +87,8 @@ int remove_stale_temporaries(const std::string& dir) {
 }
 
 std::string read_file(const std::string& path) {
+  std::error_code ec;
+  FSKIN_CHECK(!std::filesystem::is_directory(path, ec), "{}: is a directory, not a file", path);
   std::ifstream in(path, std::ios::binary);
   FSKIN_CHECK(in.good(), "{}: cannot open: {}", path,
               std::filesystem::exists(path) ? std::strerror(errno) : "no such file");

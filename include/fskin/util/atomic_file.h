@@ -9,6 +9,15 @@
 
 namespace fskin {
 
+// Creates `dir` and its parents if missing; throws fskin::Error naming the
+// path when it cannot (read-only, under a regular file, no permission).
+void create_output_directory(const std::string& dir);
+
+// Throws fskin::Error if `output` is `input`, lies inside it or holds it: a
+// run or dataset written over its own input destroys it. `command` names the
+// caller in the message.
+void check_output_apart_from_input(const std::string& output, const std::string& input, const std::string& command);
+
 // Writes `bytes` to `path` atomically; creates parent directories.
 void write_file_atomically(const std::string& path, const std::string& bytes);
 
