@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
+#include <zlib.h>
 
 #include "fskin/body/character.h"
 #include "fskin/core/error.h"
@@ -297,9 +298,205 @@ std::string mutate_lines(const std::string& text, Random& rng, std::string& what
   return out;
 }
 
+// ---- glTF structure mutations --------------------------------------------------
+
+// What breaks glTF readers: offsets near 2^64, counts beyond the buffer,
+// strides, missing indices, sparse accessors, node depth and cycles, skins
+// and animation samplers pointing anywhere, non-unit or non-finite
+// transforms.
+std::string mutate_gltf(const std::string& text, Random& rng, std::string& what) {
+  auto g = nlohmann::json::parse(text);
+  const auto pick = [&](const char* array) -> nlohmann::json* {
+    auto& items = g[array];
+    return items.is_array() && !items.empty() ? &items[below(rng, items.size())] : nullptr;
+  };
+  static const std::vector<nlohmann::json> huge = {
+      ~uint64_t{0}, ~uint64_t{0} - 3, uint64_t{1} << 63, uint64_t{1} << 62, uint64_t{1} << 32, 4294967295u,
+      2147483647, 2147483648u, -1, -2147483648LL, 0, 1, 3, 4, 5, 7};
+  const auto& h = huge[below(rng, huge.size())];
+  switch (below(rng, 12)) {
+    case 0:
+      if (auto* a = pick("accessors")) (*a)["byteOffset"] = h, what = "accessor byteOffset = " + h.dump();
+      break;
+    case 1:
+      if (auto* a = pick("accessors")) (*a)["count"] = h, what = "accessor count = " + h.dump();
+      break;
+    case 2:
+      if (auto* v = pick("bufferViews")) {
+        static const char* fields[] = {"byteOffset", "byteLength", "byteStride", "buffer"};
+        const char* field = fields[below(rng, 4)];
+        (*v)[field] = h;
+        what = fmt::format("bufferView {} = {}", field, h.dump());
+      }
+      break;
+    case 3:
+      for (auto& mesh : g["meshes"])
+        for (auto& primitive : mesh["primitives"]) primitive.erase("indices");
+      what = "every primitive without indices";
+      break;
+    case 4:
+      if (auto* a = pick("accessors")) {
+        const auto views = g["bufferViews"].size();
+        (*a)["sparse"] = {{"count", huge[below(rng, huge.size())]},
+                          {"indices", {{"bufferView", below(rng, views + 1)}, {"byteOffset", below(rng, 64)},
+                                       {"componentType", below(rng, 2) ? 5123 : 5125}}},
+                          {"values", {{"bufferView", below(rng, views + 1)}, {"byteOffset", below(rng, 64)}}}};
+        if (below(rng, 2)) a->erase("bufferView");
+        what = "sparse accessor " + (*a)["sparse"].dump();
+      }
+      break;
+    case 5: {
+      const size_t depth = 1 + below(rng, 20000);
+      const size_t first = g["nodes"].size();
+      for (size_t i = 0; i < depth; ++i)
+        g["nodes"].push_back({{"name", "chain" + std::to_string(i)},
+                              {"children", i + 1 < depth ? nlohmann::json::array({first + i + 1}) : g["scenes"][0]["nodes"]}});
+      g["scenes"][0]["nodes"] = nlohmann::json::array({first});
+      what = fmt::format("the scene under a {}-deep node chain", depth);
+      break;
+    }
+    case 6:
+      if (auto* n = pick("nodes")) {
+        const auto index = g["nodes"].size() > 0 ? below(rng, g["nodes"].size()) : 0;
+        (*n)["children"].push_back(index);
+        what = fmt::format("node gets child {} (a cycle or a second parent)", index);
+      }
+      break;
+    case 7:
+      if (auto* skin = pick("skins")) {
+        auto& joints = (*skin)["joints"];
+        if (!joints.empty()) joints[below(rng, joints.size())] = h;
+        what = "a skin joint = " + h.dump();
+      }
+      break;
+    case 8:
+      if (auto* animation = pick("animations")) {
+        auto& samplers = (*animation)["samplers"];
+        if (!samplers.empty()) {
+          auto& sampler = samplers[below(rng, samplers.size())];
+          static const char* interpolations[] = {"CUBICSPLINE", "STEP", "LINEAR", "SPLINE"};
+          if (below(rng, 2)) sampler["interpolation"] = interpolations[below(rng, 4)];
+          else std::swap(sampler["input"], sampler["output"]);
+          what = "animation sampler " + sampler.dump();
+        }
+      }
+      break;
+    case 9:
+      if (auto* n = pick("nodes")) {
+        static const std::vector<nlohmann::json> rotations = {
+            {0, 0, 0, 0}, {0, 0, 0, 1e30}, {1e-30, 0, 0, 0}, {0, 0, 0, 1, 1}, {0, 0, 0}};
+        (*n)["rotation"] = rotations[below(rng, rotations.size())];
+        what = "node rotation " + (*n)["rotation"].dump();
+      }
+      break;
+    case 10:
+      if (auto* n = pick("nodes")) {
+        (*n)["translation"] = {1e30, 0, 0};
+        if (below(rng, 2)) (*n)["scale"] = {0, 0, 0};
+        what = "node translation 1e30 " + n->dump().substr(0, 80);
+      }
+      break;
+    default:
+      if (auto* a = pick("accessors")) {
+        static const int types[] = {5120, 5121, 5122, 5123, 5125, 5126, 0, 5124, 99999};
+        (*a)["componentType"] = types[below(rng, 9)];
+        if (below(rng, 2)) (*a)["normalized"] = true;
+        what = "accessor componentType " + (*a)["componentType"].dump();
+      }
+  }
+  if (what.empty()) what = "unchanged";
+  return g.dump();
+}
+
+// ---- BVH structure mutations ----------------------------------------------------
+
+// What breaks BVH readers: deep hierarchies, frame counts the file cannot
+// hold, motion lines with more or fewer values, huge values, twin names.
+std::string mutate_bvh(const std::string& text, Random& rng, std::string& what) {
+  std::string out = text;
+  const auto replace_after = [&](const std::string& key, const std::string& value) {
+    const auto at = out.find(key);
+    if (at == std::string::npos) return;
+    const auto end = out.find('\n', at);
+    out.replace(at + key.size(), end - at - key.size(), value);
+  };
+  switch (below(rng, 6)) {
+    case 0: {
+      static const char* frames[] = {" 0", " -1", " 1e9", " 1e19", " 1e300", " 2000000", " 2.5", " 99"};
+      const char* f = frames[below(rng, 8)];
+      replace_after("Frames:", f);
+      what = std::string("Frames:") + f;
+      break;
+    }
+    case 1: {
+      const size_t depth = 1 + below(rng, 30000);
+      std::string chain;
+      for (size_t i = 0; i < depth; ++i) chain += "JOINT deep" + std::to_string(i) + "\n{\nOFFSET 0 1 0\nCHANNELS 0\n";
+      for (size_t i = 0; i < depth; ++i) chain += "}\n";
+      const auto at = out.find("JOINT");
+      out.insert(at, chain);
+      what = fmt::format("a {}-deep joint chain", depth);
+      break;
+    }
+    case 2: {
+      const auto motion = out.find("Frame Time:");
+      const auto line = out.find('\n', motion) + 1;
+      out.insert(line, below(rng, 2) ? "0 " : "");
+      if (below(rng, 2)) out.insert(out.find('\n', line), " 0 0");
+      what = "a motion line with another number of values";
+      break;
+    }
+    case 3: {
+      static const char* values[] = {"1e300", "-1e300", "1e30", "36001", "nan", "inf"};
+      const auto motion = out.find("Frame Time:");
+      const auto line = out.find('\n', motion) + 1;
+      const char* v = values[below(rng, 6)];
+      out.replace(line, out.find(' ', line) - line, v);
+      what = std::string("first motion value = ") + v;
+      break;
+    }
+    case 4: {
+      const auto motion = out.find("Frame Time:");
+      const auto line = out.find('\n', motion) + 1;
+      const std::string first = out.substr(line, out.find('\n', line) - line + 1);
+      for (size_t i = 0, n = 1 + below(rng, 3); i < n; ++i) out += first;
+      what = "motion lines beyond Frames:";
+      break;
+    }
+    default: {
+      const auto second = out.find("JOINT", out.find("JOINT") + 5);
+      if (second != std::string::npos) {
+        const auto name_end = out.find('\n', second);
+        out.replace(second + 6, name_end - second - 6, "pelvis");
+      }
+      what = "a joint named like the root";
+    }
+  }
+  return out;
+}
+
+// ---- checkpoints ------------------------------------------------------------
+
+// A checkpoint whose payload is mutated and whose header (size, CRC-32) is
+// made valid again: damage the CRC cannot see (checkpoint.h's layout: magic
+// [8], payload size u64, CRC-32 u32, payload).
+std::string mutate_sealed_checkpoint(const std::string& bytes, Random& rng, std::string& what) {
+  constexpr size_t kHeader = 8 + 8 + 4;
+  if (bytes.size() <= kHeader) return bytes;
+  const std::string payload = mutate_bytes(bytes.substr(kHeader), rng, what);
+  what = "sealed payload, " + what;
+  const uint64_t size = payload.size();
+  const uint32_t crc = static_cast<uint32_t>(
+      ::crc32(0L, reinterpret_cast<const Bytef*>(payload.data()), static_cast<uInt>(payload.size())));
+  std::string out = bytes.substr(0, 8);
+  out.append(reinterpret_cast<const char*>(&size), sizeof size);
+  out.append(reinterpret_cast<const char*>(&crc), sizeof crc);
+  return out + payload;
+}
+
 // ---- targets ----------------------------------------------------------------
 
-enum class Kind { Npz, Json, Text, Binary };
+enum class Kind { Npz, Json, Text, Binary, Gltf, Bvh, Checkpoint };
 
 struct Target {
   std::string name;
@@ -429,9 +626,13 @@ Frame Time: 0.0333333
                          [p = in("rig.glb")] { import_gltf(p.string()); }});
     f.targets.push_back({"gltf_json", seeds / "rig.gltf", in("rig.gltf"), Kind::Json,
                          [p = in("rig.gltf")] { import_gltf(p.string()); }});
+    f.targets.push_back({"gltf_structure", seeds / "rig.gltf", in("rig_structure.gltf"), Kind::Gltf,
+                         [p = in("rig_structure.gltf")] { import_gltf(p.string()); }});
     const auto skeleton = model.skeleton();
     f.targets.push_back({"bvh", seeds / "walk.bvh", in("walk.bvh"), Kind::Text,
                          [p = in("walk.bvh"), skeleton] { import_bvh(p.string(), skeleton); }});
+    f.targets.push_back({"bvh_structure", seeds / "walk.bvh", in("walk_structure.bvh"), Kind::Bvh,
+                         [p = in("walk_structure.bvh"), skeleton] { import_bvh(p.string(), skeleton); }});
     f.targets.push_back({"amass", seeds / "amass.npz", in("amass.npz"), Kind::Npz,
                          [p = in("amass.npz"), skeleton] { import_amass(p.string(), skeleton); }});
     if (have_dataset) {
@@ -489,6 +690,10 @@ const Fixture& image_fixture() {
     in_place("image_mask_png", train / "masks" / "mask_0000.png", Kind::Binary, load_train);
     in_place("avatar_run", fs::path(training.out_dir) / "avatar.json", Kind::Json,
              [run = training.out_dir] { TrainedAvatar::load(run); });
+    // Run-directory damage: the checkpoint's bytes (its CRC catches most; a
+    // valid CRC over a damaged archive must still be an fskin::Error).
+    in_place("avatar_checkpoint", fs::path(training.out_dir) / "checkpoint-00000001.fskin", Kind::Checkpoint,
+             [run = training.out_dir] { TrainedAvatar::load(run); });
     return f;
   }();
   return f;
@@ -498,7 +703,7 @@ const std::vector<std::string>& target_names() {
   static const std::vector<std::string> names = {
       "model", "poses", "binary_ply", "ascii_ply", "obj", "config", "glb", "gltf_json", "bvh", "amass",
       "dataset_frame", "manifest", "image_cameras", "image_character", "image_poses", "image_manifest",
-      "image_png", "image_mask_png", "avatar_run"};
+      "image_png", "image_mask_png", "avatar_run", "avatar_checkpoint", "gltf_structure", "bvh_structure"};
   return names;
 }
 
@@ -538,6 +743,12 @@ TEST_P(InputFuzz, MutatedInputsAreAcceptedOrRejectedWithAnFskinError) {
       bytes = mutate_npz(target.seed, f.dir / "structure.npz", rng, what);
     } else if (structural && target.kind == Kind::Json) {
       bytes = mutate_json(seed_bytes, rng, what);
+    } else if (structural && target.kind == Kind::Checkpoint) {
+      bytes = mutate_sealed_checkpoint(seed_bytes, rng, what);
+    } else if (target.kind == Kind::Gltf) {
+      bytes = mutate_gltf(seed_bytes, rng, what);
+    } else if (target.kind == Kind::Bvh) {
+      bytes = structural ? mutate_bvh(seed_bytes, rng, what) : mutate_lines(seed_bytes, rng, what);
     } else if (structural && target.kind == Kind::Text) {
       bytes = mutate_lines(seed_bytes, rng, what);
     } else {

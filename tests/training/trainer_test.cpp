@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fskin/training/checkpoint.h"
+#include "fskin/training/run_lock.h"
 #include "fskin/evaluation/evaluation.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
@@ -117,6 +118,53 @@ TEST(Trainer, ResumeBeforeTheFirstCheckpointTrainsFromTheStart) {
   EXPECT_EQ(step_b, 8);
   expect_same_parameters(*a, *b);
   EXPECT_EQ(log_column(whole, "bce"), log_column(early, "bce"));
+}
+
+// Delegates to a source and poisons the targets of every batch from the
+// `poisoned_from`-th on with NaN: a diverging run, on demand.
+class PoisonedSource : public BatchSource {
+ public:
+  PoisonedSource(const BatchSource& source, int64_t poisoned_from) : source_(source), poisoned_from_(poisoned_from) {}
+  int64_t num_frames() const override { return source_.num_frames(); }
+  const CanonicalSkeleton& skeleton() const override { return source_.skeleton(); }
+  OccupancyBatch batch(int64_t frames, int64_t surface_points, int64_t uniform_points, uint64_t seed) const override {
+    auto batch = source_.batch(frames, surface_points, uniform_points, seed);
+    if (++batches_ > poisoned_from_) batch.occupancy = torch::full_like(batch.occupancy, std::nanf(""));
+    return batch;
+  }
+
+ private:
+  const BatchSource& source_;
+  int64_t poisoned_from_;
+  mutable int64_t batches_ = 0;
+};
+
+TEST(Trainer, ANonFiniteLossStopsTrainingAndKeepsTheLastGoodCheckpoint) {
+  const SyntheticLimb limb(training_angles());
+  TrainConfig config = resume_config("fast-snarf");
+  config.checkpoint_every = 2;
+  const PoisonedSource diverging(limb, 5);
+  const auto run = testing::temp_dir("trainer_nan");
+  testing::expect_error([&] { train(config, diverging, {run.string(), false, false, nullptr}); },
+                        {run.string(), "the loss became nan at step 6", "last checkpoint (step 4) is kept"});
+  int64_t step = 0;
+  load_trained_model(run.string(), limb.skeleton(), &step);
+  EXPECT_EQ(step, 4);
+  // The run resumes from there once the cause is gone.
+  const auto resumed = train(config, limb, {run.string(), true, false, nullptr});
+  EXPECT_EQ(resumed.first_step, 4);
+  EXPECT_EQ(resumed.last_step, config.steps);
+}
+
+// One writer per run: a second training into a run another process writes
+// fails at once, naming it.
+TEST(Trainer, ARunAnotherWriterHoldsIsRefused) {
+  const SyntheticLimb limb(training_angles());
+  const auto run = testing::temp_dir("trainer_locked");
+  const RunLock holder(run.string());
+  testing::expect_error([&] { train(resume_config("fast-snarf"), limb, {run.string(), false, false, nullptr}); },
+                        {run.string(), "another fskin process", "PID"});
+  EXPECT_FALSE(fs::exists(run / "config.json"));
 }
 
 INSTANTIATE_TEST_SUITE_P(Methods, TrainerResume, ::testing::Values("fast-snarf", "ins"),
