@@ -131,15 +131,18 @@ class BvhReader {
                 path_, frame_time);
     // Each value takes at least two bytes ("0 "): a count the rest of the
     // file cannot hold is refused before anything is allocated.
-    const auto position = in_.tellg();
-    const double bytes_left = static_cast<double>(text_size_) - static_cast<double>(position);
+    // tellg is -1 once a read has hit the end of the text (a file cut after
+    // Frame Time): then nothing follows.
+    const std::streamoff read_to = in_.tellg();
+    const size_t position = read_to < 0 ? text_size_ : std::min(static_cast<size_t>(read_to), text_size_);
+    const double bytes_left = static_cast<double>(text_size_ - position);
     FSKIN_CHECK(frames * channels <= bytes_left / 2 + channels,
                 "{}: 'Frames: {:.0f}' of {} channels needs at least {:.3g} bytes, but {:.0f} follow", path_, frames,
                 channels, 2 * frames * channels, bytes_left);
     num_channels = channels;
     num_frames = static_cast<int64_t>(frames);
     // One line per frame with exactly one value per channel, as Frames: says.
-    int64_t line_number = 1 + std::count(text_begin_, text_begin_ + static_cast<std::ptrdiff_t>(position), '\n');
+    int64_t line_number = 1 + std::count(text_begin_, text_begin_ + position, '\n');
     std::string line;
     std::getline(in_, line);  // the rest of the Frame Time line
     FSKIN_CHECK(line.find_first_not_of(" \t\r") == std::string::npos, "{}:{}: unexpected '{}' after Frame Time", path_,

@@ -390,6 +390,12 @@ TEST(HostileBvh, AFrameCountTheFileCannotHoldIsRefusedBeforeAllocating) {
   }
 }
 
+TEST(HostileBvh, AFileCutAfterTheFrameTimeIsRefused) {
+  std::string text = bvh_text("", 1, "");
+  text.resize(text.size() - 5);  // "Frame Time: 0.03", no newline, no motion
+  testing::expect_error([&] { import_bvh(write_bvh(text, "cut"), human().skeleton()); }, {"cut.bvh"});
+}
+
 TEST(HostileBvh, MotionLinesMustMatchTheChannelsAndTheFrameCount) {
   const auto& skeleton = human().skeleton();
   testing::expect_error(
