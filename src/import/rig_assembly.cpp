@@ -38,9 +38,9 @@ JointOrder order_joints(const std::string& path, const SourceJoints& joints, Bod
     std::set<std::string> unique(joints.names.begin(), joints.names.end());
     FSKIN_CHECK(unique.size() == joints.names.size(), "{}: two joints share a name; fskin needs unique names", path);
   }
-  // Parents first, otherwise in the source's order: breadth-first from the
-  // root with children in the source's order (the source's own order when it
-  // already is topological and breadth-first). Linear in the joints.
+  // Parents first: the source's own order when every parent precedes its
+  // children, otherwise breadth-first from the root with children in the
+  // source's order. Linear in the joints (a chain may be thousands deep).
   std::vector<std::vector<int>> children(J);
   for (int64_t i = 0; i < J; ++i) {
     FSKIN_CHECK(joints.parent[i] < J, "{}: joint '{}' has parent {} of {}", path, joints.names[i], joints.parent[i], J);
