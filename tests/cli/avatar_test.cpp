@@ -2,12 +2,19 @@
 // user would on a tiny image dataset of the built-in character.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "fskin/export/image.h"
+#include "fskin/training/run_lock.h"
 #include "fskin/util/atomic_file.h"
 #include "test_util.h"
 
@@ -98,6 +105,54 @@ TEST_F(AvatarCommands, TrainingAgainNeedsResume) {
             0)
       << log();
   EXPECT_NE(log().find("steps 20 -> 25"), std::string::npos) << log();
+}
+
+// One writer per run: while another process holds the run (here this test
+// process, through the same lock file), `avatar train --resume` fails at once
+// naming it; once free, the resume removes what a killed write left and logs
+// each step once.
+TEST_F(AvatarCommands, ASecondWriterFailsAndAResumeCleansUp) {
+  const std::string run = path("run_busy");
+  fs::remove_all(run);
+  fs::copy(path("run"), run, fs::copy_options::recursive);
+  {
+    const RunLock holder(run);
+    ASSERT_NE(run_cli("avatar train --data " + path("images") + " --out " + run + " --steps 24 --resume --quiet"), 0)
+        << log();
+    EXPECT_NE(log().find("PID " + std::to_string(::getpid())), std::string::npos) << log();
+  }
+  const auto log_steps = [&] {
+    std::vector<int64_t> steps;
+    std::istringstream lines(read_file((fs::path(run) / "log.jsonl").string()));
+    for (std::string line; std::getline(lines, line);) steps.push_back(nlohmann::json::parse(line).at("step"));
+    return steps;
+  };
+  const int64_t saved = log_steps().back();  // the run's checkpoint is at its last logged step
+  // What a run killed after its checkpoint leaves: a temporary of the next
+  // checkpoint and log lines past the saved step (the last one cut).
+  const auto stale = fs::path(run) / "checkpoint-99999999.fskin.tmp-999999999";  // no such process
+  std::ofstream(stale) << "half a checkpoint";
+  std::ofstream(fs::path(run) / "log.jsonl", std::ios::app)
+      << "{\"step\": " << saved + 1 << "}\n{\"step\": " << saved + 2 << ", \"lo";
+  const int64_t target = saved + 3;
+  ASSERT_EQ(run_cli("avatar train --data " + path("images") + " --out " + run + " --steps " + std::to_string(target) +
+                    " --resume --quiet"),
+            0)
+      << log();
+  EXPECT_FALSE(fs::exists(stale));
+  const auto steps = log_steps();
+  EXPECT_EQ(std::set<int64_t>(steps.begin(), steps.end()).size(), steps.size());
+  EXPECT_EQ(std::count(steps.begin(), steps.end(), saved + 1), 0);
+  EXPECT_EQ(steps.back(), target);
+}
+
+TEST_F(AvatarCommands, OutputsMayNotOverwriteTheDataOrPretendToBeJpeg) {
+  ASSERT_NE(run_cli("avatar train --data " + path("images") + " --out " + path("images") + " --steps 1 --quiet"), 0)
+      << log();
+  EXPECT_NE(log().find("is the input"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar render " + path("run") + " --split train --index 0 --out " + path("x.jpg")), 0) << log();
+  EXPECT_NE(log().find("name the file .png"), std::string::npos) << log();
+  EXPECT_FALSE(fs::exists(path("x.jpg")));
 }
 
 TEST_F(AvatarCommands, BadInputsAreNamed) {
