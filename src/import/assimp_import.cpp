@@ -25,10 +25,6 @@ namespace {
 
 using Matrix4 = Eigen::Matrix4d;
 
-// Node transforms sampled per clip (key times x nodes) beyond which a file is
-// refused rather than sampled for hours.
-constexpr double kMostSampledNodeTransforms = 2e8;
-
 Matrix4 to_eigen(const aiMatrix4x4& m) {
   Matrix4 e;  // aiMatrix4x4 is row-major: a1..a4 is the first row
   e << m.a1, m.a2, m.a3, m.a4, m.b1, m.b2, m.b3, m.b4, m.c1, m.c2, m.c3, m.c4, m.d1, m.d2, m.d3, m.d4;
@@ -154,8 +150,7 @@ Eigen::Quaterniond slerp_key(const aiQuatKey* keys, unsigned n, double t, const 
   return q(i).slerp(u, q(i + 1));
 }
 
-// Key times that never decrease, finite values, rotations of about unit
-// length (a zero quaternion has no direction).
+// Key times that never decrease, finite values, unit rotations.
 void check_keys(const aiNodeAnim* ch, const std::string& path, const std::string& clip) {
   const std::string node = ch->mNodeName.C_Str();
   const auto check_times = [&](const auto* keys, unsigned n, const char* what) {
@@ -178,9 +173,9 @@ void check_keys(const aiNodeAnim* ch, const std::string& path, const std::string
   }
   for (unsigned k = 0; k < ch->mNumRotationKeys; ++k) {
     const auto& q = ch->mRotationKeys[k].mValue;
-    const double norm = std::sqrt(double(q.w) * q.w + double(q.x) * q.x + double(q.y) * q.y + double(q.z) * q.z);
-    FSKIN_CHECK(norm > 0.5 && norm < 2.0, "{}: clip '{}' ({}) has a rotation key of length {:.3g} at tick {} (unit "
-                "quaternions expected)", path, clip, node, norm, ch->mRotationKeys[k].mTime);
+    import_detail::check_key_rotation(q.w, q.x, q.y, q.z, path,
+                                      fmt::format("clip '{}' ({} rotation at tick {})", clip, node,
+                                                  ch->mRotationKeys[k].mTime));
   }
 }
 
@@ -384,9 +379,7 @@ ImportedCharacter import_with_assimp(const std::string& path, const ImportOption
     for (double tick : tick_set)
       FSKIN_CHECK(std::isfinite(tick), "{}: clip '{}' has a key at time {}", path, name, tick);
     for (const auto& [n, ch] : channel_of) check_keys(ch, path, name);
-    FSKIN_CHECK(static_cast<double>(tick_set.size()) * num_nodes <= kMostSampledNodeTransforms,
-                "{}: clip '{}' has {} key times over {} nodes, beyond the {:g} node transforms fskin samples per clip",
-                path, name, tick_set.size(), num_nodes, kMostSampledNodeTransforms);
+    import_detail::check_clip_sampling_cost(tick_set.size(), num_nodes, path, name);
     std::vector<double> ticks(tick_set.begin(), tick_set.end()), times;
     for (double tick : ticks) times.push_back(tick / ticks_per_second);
     std::vector<Matrix4> global(num_nodes);

@@ -163,6 +163,19 @@ void assemble_mesh(const std::string& path, const SkinnedSoup& soup, const Impor
   data.weights = (vertex_weights / totals.unsqueeze(1)).to(torch::kFloat32).contiguous();
 }
 
+void check_key_rotation(double w, double x, double y, double z, const std::string& path, const std::string& where) {
+  const double norm = std::sqrt(w * w + x * x + y * y + z * z);
+  FSKIN_CHECK(norm > 0.5 && norm < 2.0, "{}: {} has a quaternion of length {:.3g} (unit quaternions expected)", path,
+              where, norm);
+}
+
+void check_clip_sampling_cost(size_t key_times, size_t nodes, const std::string& path, const std::string& clip) {
+  constexpr double kMostSampledNodeTransforms = 2e8;
+  FSKIN_CHECK(static_cast<double>(key_times) * static_cast<double>(nodes) <= kMostSampledNodeTransforms,
+              "{}: clip '{}' has {} key times over {} nodes, beyond the {:g} node transforms fskin samples per clip",
+              path, clip, key_times, nodes, kMostSampledNodeTransforms);
+}
+
 ImportedClip make_clip(const std::string& path, const std::string& name, const std::vector<double>& times,
                        const SkinningAt& skinning_at, const BodyModelData& data, std::vector<std::string>& notes) {
   const auto T = static_cast<int64_t>(times.size());

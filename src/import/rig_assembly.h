@@ -48,6 +48,15 @@ struct SkinnedSoup {
 void assemble_mesh(const std::string& path, const SkinnedSoup& soup, const ImportOptions& options,
                    BodyModelData& data, std::vector<std::string>& notes);
 
+// Key rotations must be quaternions of about unit length (sloppy exporters'
+// near-unit ones are normalised when sampled; a zero or huge one has no
+// direction). Throws naming `path` and `where` (clip, node, key time).
+void check_key_rotation(double w, double x, double y, double z, const std::string& path, const std::string& where);
+
+// Sampling a clip costs key times x nodes: a file asking for more than 2e8
+// node transforms is refused rather than sampled for hours.
+void check_clip_sampling_cost(size_t key_times, size_t nodes, const std::string& path, const std::string& clip);
+
 // A clip from skinning matrices (fskin order, world, rest -> posed) at
 // `times` (seconds): local rotations, root translation and, when
 // the clip moves joints off their rest offsets by more than 1e-4 of the

@@ -284,10 +284,11 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
     // eq. 20 (Huber on colour) + eq. 21 (L1 on opacity against the mask).
     const auto colour_loss = torch::huber_loss(color, target, at::Reduction::Mean, options.huber_delta);
     const auto loss = colour_loss + options.opacity_weight * (opacity - mask).abs().mean();
-    FSKIN_CHECK(std::isfinite(loss.item<double>()),
+    const double loss_value = loss.item<double>();  // one host read per step
+    FSKIN_CHECK(std::isfinite(loss_value),
                 "{}: the loss became {} at step {} (learning rate {:g}); training stopped and the last checkpoint "
                 "(step {}) is kept: resume with a lower --lr",
-                run_dir, loss.item<double>(), step + 1, options.learning_rate, saved);
+                run_dir, loss_value, step + 1, options.learning_rate, saved);
     adam.zero_grad();
     if (loss.requires_grad()) {
       loss.backward();
@@ -299,7 +300,7 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
     ++step;
     const double mse = (color.detach() - target).pow(2).mean().item<double>();
     const double batch_psnr = -10 * std::log10(std::max(mse, 1e-12));
-    loss_sum += loss.item<double>();
+    loss_sum += loss_value;
     psnr_sum += batch_psnr;
     ++logged;
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
@@ -317,7 +318,7 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
       loss_sum = psnr_sum = 0;
       logged = 0;
     }
-    bar.advance(1, fmt::format("loss {:.4f} psnr {:.1f} {:.0f} samples/ray {:.2f} it/s", loss.item<double>(),
+    bar.advance(1, fmt::format("loss {:.4f} psnr {:.1f} {:.0f} samples/ray {:.2f} it/s", loss_value,
                                batch_psnr, static_cast<double>(samples) / options.rays_per_step, 1.0 / seconds));
     if (step % options.checkpoint_every == 0) {
       save_checkpoint(run_dir, step, state_writer(avatar, adam, step));
