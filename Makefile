@@ -8,7 +8,7 @@ export CCACHE_SLOPPINESS := pch_defines,time_macros,include_file_mtime,include_f
 # Paths relative to the checkout, so every clone shares the cache.
 export CCACHE_BASEDIR ?= $(CURDIR)
 
-.PHONY: setup configure build test demo demo-quadruped demo-avatar bench python sanitize sanitize-readers clean
+.PHONY: setup configure build cli test demo demo-quadruped demo-avatar bench python sanitize sanitize-readers clean
 
 setup:
 	bash scripts/setup.sh
@@ -21,19 +21,25 @@ configure: setup $(BUILD_DIR)/build.ninja
 build: configure
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
+# The command-line tool alone: what the demos run. The library's CUDA kernels
+# are not among its dependencies unless LibTorch itself has CUDA (then they are
+# linked in); `make build` / `make test` compile them wherever nvcc exists.
+cli: configure
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target fskin_cli
+
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 900
 
-demo: build
+demo: cli
 	bash scripts/demo.sh $(BUILD_DIR)/fskin demo-output
 
 # The same job on the built-in 33-joint quadruped, with the same defaults.
-demo-quadruped: build
+demo-quadruped: cli
 	FSKIN_DEMO_KIND=quadruped bash scripts/demo.sh $(BUILD_DIR)/fskin demo-quadruped
 
 # A textured avatar learned from rendered images of the built-in character
 # (Fast-SNARF sec. 7): dataset, training, PSNR per split, pictures.
-demo-avatar: build
+demo-avatar: cli
 	bash scripts/demo_avatar.sh $(BUILD_DIR)/fskin demo-avatar-output
 
 # The Python module: build/python/fskin (use with PYTHONPATH=build/python).
