@@ -4,6 +4,7 @@
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
+#include "fskin/networks/relu_mlp.h"
 
 namespace fskin {
 
@@ -26,15 +27,9 @@ RadianceFieldImpl::RadianceFieldImpl(RadianceFieldOptions options, std::array<do
     extent_ = std::max(extent_, upper[c] - lower[c]);
   }
   table_ = register_parameter("table", hash_encoding_table(options_.encoding));
-  mlp_ = torch::nn::Sequential();
-  int64_t width = options_.encoding.output_dim();
-  for (int64_t l = 0; l < options_.hidden_layers; ++l) {
-    mlp_->push_back(torch::nn::Linear(width, options_.hidden_dim));
-    mlp_->push_back(torch::nn::ReLU());
-    width = options_.hidden_dim;
-  }
-  mlp_->push_back(torch::nn::Linear(width, 4));
-  register_module("mlp", mlp_);
+  // Density and colour from the encoded point (eq. 18-19).
+  mlp_ = register_module("mlp", relu_mlp({options_.encoding.output_dim(), /*output_dim=*/4, options_.hidden_dim,
+                                          options_.hidden_layers}));
 }
 
 RadianceSample RadianceFieldImpl::forward(const torch::Tensor& x) {

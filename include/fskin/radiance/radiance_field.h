@@ -2,7 +2,7 @@
 // The canonical radiance field of an avatar (Fast-SNARF sec. 7, eq. 18-19;
 // InstantAvatar): the multi-resolution hash encoding (ops/hash_encoding.h) of
 // the canonical point, normalised into the unit cube of the canonical box,
-// followed by a small MLP to density sigma >= 0 (per metre) and colour in
+// followed by a small ReLU MLP (networks/relu_mlp.h) to density sigma >= 0 (per metre) and colour in
 // [0, 1]. Colour does not depend on the view direction (the avatar's albedo
 // under fixed light).
 #include <torch/torch.h>
