@@ -8,6 +8,7 @@ void register_animate(CLI::App& app);
 void register_avatar(CLI::App& app);
 void register_bench(CLI::App& app);
 void register_character(CLI::App& app);
+void register_config(CLI::App& app);
 void register_export(CLI::App& app);
 void register_import(CLI::App& app);
 void register_pose(CLI::App& app);

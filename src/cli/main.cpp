@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   fskin::cli::register_avatar(app);
   fskin::cli::register_bench(app);
   fskin::cli::register_character(app);
+  fskin::cli::register_config(app);
   fskin::cli::register_export(app);
   fskin::cli::register_import(app);
   fskin::cli::register_pose(app);

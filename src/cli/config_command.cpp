@@ -1,0 +1,56 @@
+// fskin config show: the full resolved config of a run, or a method's defaults.
+#include <cstdio>
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include "cli/commands.h"
+#include "fskin/core/error.h"
+#include "fskin/engine/run_directory.h"
+#include "fskin/training/train_config.h"
+#include "fskin/util/atomic_file.h"
+
+namespace fskin::cli {
+
+void register_config(CLI::App& app) {
+  struct Options {
+    std::string target;
+    bool full = false;
+    std::vector<std::string> settings;
+  };
+  auto opt = std::make_shared<Options>();
+  auto* config = app.add_subcommand("config", "Configs: the resolved config of a run or of a method");
+  config->require_subcommand(1);
+  auto* show = config->add_subcommand(
+      "show", "Print the full resolved config (JSON) of a run directory, or the defaults of a method");
+  show->add_option("target", opt->target,
+                   "a run directory (fskin train / fskin avatar train) or a method: fast-snarf, snarf, ins, "
+                   "pose-onet, back-lbs, back-d, piecewise")
+      ->required();
+  show->add_flag("--full", opt->full, "a method's full-size (paper) config instead of the CPU defaults");
+  show->add_option("--set", opt->settings, "key=value applied to a method's defaults, as fskin train --set");
+  show->callback([opt] {
+    namespace fs = std::filesystem;
+    if (fs::is_directory(opt->target)) {
+      FSKIN_CHECK(!opt->full && opt->settings.empty(), "config show {}: --full and --set apply to methods, not runs",
+                  opt->target);
+      const RunDirectory run(opt->target);
+      if (fs::exists(run.config_file())) {
+        // Through the loader: keys older runs lack come out with the values they trained with.
+        std::printf("%s\n", nlohmann::json::parse(TrainConfig::load_run(run.config_file()).to_json()).dump(2).c_str());
+        return;
+      }
+      FSKIN_CHECK(fs::exists(run.avatar_config_file()), "{}: not a run directory (no config.json or avatar.json)",
+                  opt->target);
+      std::printf("%s\n", nlohmann::json::parse(read_file(run.avatar_config_file())).dump(2).c_str());
+      return;
+    }
+    TrainConfig c = opt->full ? TrainConfig::full() : TrainConfig{};
+    c.use_method(opt->target);
+    for (const auto& s : opt->settings) c.set(s);
+    c.validate();
+    std::printf("%s\n", nlohmann::json::parse(c.to_json()).dump(2).c_str());
+  });
+}
+
+}  // namespace fskin::cli
