@@ -15,6 +15,8 @@ PACKAGES=(
   libstb-dev libtinygltf-dev libtinyobjloader-dev
   # FBX / Collada import; the test models are BSD-licensed rigs the tests read.
   libassimp-dev assimp-testmodels
+  # torch.distributed's Gloo backend (data-parallel training across processes).
+  libgloo-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   # The Python module (python/): Debian's torch 1.13 is libtorch-dev's LibTorch.
   python3-dev python3-torch python3-numpy python3-pytest pybind11-dev

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "fskin/core/error.h"
+#include "fskin/engine/run_directory.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin {
@@ -35,10 +36,10 @@ RunSummary summarize_run(const std::string& run_dir) {
   FSKIN_CHECK(fs::is_directory(run_dir), "report: {} is not a run directory", run_dir);
   RunSummary r;
   r.run_dir = run_dir;
-  const auto config = parse_json((fs::path(run_dir) / "config.json").string());
+  const auto config = parse_json(RunDirectory(run_dir).config_file());
   r.method = config.value("method", "?");
 
-  const auto log_path = (fs::path(run_dir) / "log.jsonl").string();
+  const auto log_path = RunDirectory(run_dir).log_file();
   std::istringstream log(read_file(log_path));
   std::vector<double> step_seconds;
   for (std::string line; std::getline(log, line);) {

@@ -8,7 +8,7 @@
 #include "fskin/core/error.h"
 #include "fskin/data/dataset.h"
 #include "fskin/inference/trained_run.h"
-#include "fskin/training/checkpoint.h"
+#include "fskin/engine/checkpoint.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin {

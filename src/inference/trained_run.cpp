@@ -3,7 +3,8 @@
 #include <filesystem>
 
 #include "fskin/core/error.h"
-#include "fskin/training/trainer.h"
+#include "fskin/engine/run_directory.h"
+#include "fskin/training/occupancy_training.h"
 
 namespace fskin {
 
@@ -11,7 +12,7 @@ TrainedRun TrainedRun::load(const std::string& run_dir, const std::string& data_
                             const CheckpointChoice& checkpoint, const torch::Device& device) {
   namespace fs = std::filesystem;
   FSKIN_CHECK(fs::is_directory(run_dir), "run directory {} does not exist", run_dir);
-  const auto config_path = (fs::path(run_dir) / "config.json").string();
+  const auto config_path = RunDirectory(run_dir).config_file();
   FSKIN_CHECK(fs::exists(config_path), "{} has no config.json: not a run directory written by `fskin train`",
               run_dir);
   TrainedRun run;

@@ -2,22 +2,22 @@
 
 #include <torch/torch.h>
 
-#include <chrono>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "fskin/core/error.h"
-#include "fskin/training/checkpoint.h"
-#include "fskin/training/trainer.h"
-#include "fskin/training/run_lock.h"
+#include "fskin/engine/checkpoint.h"
+#include "fskin/engine/run_directory.h"
+#include "fskin/engine/run_lock.h"
+#include "fskin/engine/trainer.h"
 #include "fskin/util/atomic_file.h"
-#include "fskin/util/free_cores.h"
-#include "fskin/util/progress.h"
 #include "fskin/version.h"
 
 namespace fskin {
@@ -113,35 +113,6 @@ AvatarTrainOptions read_run_options(const std::string& path, const std::string& 
   }
 }
 
-std::string config_path(const std::string& run_dir) { return (fs::path(run_dir) / "avatar.json").string(); }
-
-ArchiveWriter state_writer(Avatar& avatar, torch::optim::Optimizer& optimizer, int64_t step) {
-  return [&avatar, &optimizer, step](torch::serialize::OutputArchive& archive) {
-    torch::serialize::OutputArchive model, adam;
-    avatar->save(model);
-    optimizer.save(adam);
-    archive.write("avatar", model);
-    archive.write("optimizer", adam);
-    archive.write("step", torch::tensor(step));
-  };
-}
-
-ArchiveReader state_reader(Avatar& avatar, torch::optim::Optimizer* optimizer, int64_t& step) {
-  return [&avatar, optimizer, &step](torch::serialize::InputArchive& archive) {
-    torch::serialize::InputArchive model;
-    archive.read("avatar", model);
-    avatar->load(model);
-    if (optimizer) {
-      torch::serialize::InputArchive adam;
-      archive.read("optimizer", adam);
-      optimizer->load(adam);
-    }
-    torch::Tensor t;
-    archive.read("step", t);
-    step = t.item<int64_t>();
-  };
-}
-
 }  // namespace
 
 void AvatarTrainOptions::validate() const {
@@ -165,114 +136,98 @@ void AvatarTrainOptions::validate() const {
               "avatar train: occupancy, checkpoint and log intervals must be >= 1");
 }
 
-AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
-  requested.validate();
-  AvatarTrainOptions options = requested;
-  const std::string run_dir = requested.out_dir;
-  check_output_apart_from_input(run_dir, requested.data_dir, "avatar train");
-  const RunLock lock(run_dir);  // one writer per run, before the run is read or written
-  const auto config_file = config_path(run_dir);
-  if (fs::exists(config_file)) {
-    FSKIN_CHECK(requested.resume, "{} already holds an avatar run; pass --resume to continue it or use another --out",
-                run_dir);
-    // The run's own settings; only the number of steps may change.
-    options = read_run_options(config_file, run_dir);
-    options.steps = requested.steps;
-    options.progress = requested.progress;
-    options.stop = requested.stop;
-    options.resume = true;
-  }
-  const ImageDataset data(options.data_dir);
-  const auto split = data.load_split("train");
-  FSKIN_CHECK(split.size() > 0, "{}: the train split has no images", options.data_dir);
-  create_output_directory(run_dir);
-  write_file_atomically(config_file, options_json(options).dump(2) + "\n");
-  data.character().save((fs::path(run_dir) / "canonical.npz").string());
+namespace {
 
-  torch::manual_seed(options.seed);
-  Avatar avatar(data.character(), options.avatar);
-  torch::optim::Adam adam(avatar->parameters(), torch::optim::AdamOptions(options.learning_rate).eps(1e-15));
-  int64_t step = 0;
-  if (options.resume) load_latest_checkpoint(run_dir, state_reader(avatar, &adam, step));
+constexpr const char* kAvatarArchiveKey = "avatar";
 
-  // Per image, its mask's box grown by 20 % of its size (ends exclusive).
+// Per image, its mask's box grown by 20 % of its size (ends exclusive).
+std::vector<std::array<int64_t, 4>> mask_boxes(const ImageSplit& split) {
   std::vector<std::array<int64_t, 4>> boxes;
   for (int64_t i = 0; i < split.size(); ++i) boxes.push_back(mask_box(split.masks[i], 0.2));
-  const auto dataset_background = torch::tensor(
-      {data.background()[0], data.background()[1], data.background()[2]}, torch::kFloat32);
-  // Posed frames per distinct pose (the views of one pose share it), made
-  // again after each occupancy update.
-  std::vector<int64_t> frame_id(split.size());
-  for (int64_t i = 0; i < split.size(); ++i) {
-    frame_id[i] = i;
-    for (int64_t j = 0; j < i; ++j) {
-      if (frame_id[j] == j && torch::equal(split.bone_transforms[i], split.bone_transforms[j])) {
-        frame_id[i] = j;
-        break;
+  return boxes;
+}
+
+// The avatar as the engine trains it (engine/trainable.h): per step, rays
+// from `images_per_step` training images, mostly inside their mask boxes;
+// Huber on colour (eq. 20) + L1 on opacity against the mask (eq. 21); the
+// canonical occupancy grid refreshed every occupancy_every steps.
+class AvatarTrainable : public Trainable {
+ public:
+  AvatarTrainable(Avatar avatar, const AvatarTrainOptions& options, const ImageDataset& data, const ImageSplit& split)
+      : avatar_(std::move(avatar)),
+        options_(options),
+        split_(split),
+        boxes_(mask_boxes(split)),
+        dataset_background_(torch::tensor({data.background()[0], data.background()[1], data.background()[2]},
+                                          torch::kFloat32)),
+        frame_id_(static_cast<size_t>(split.size())) {
+    // The views of one pose share its posed frame.
+    for (int64_t i = 0; i < split.size(); ++i) {
+      frame_id_[i] = i;
+      for (int64_t j = 0; j < i; ++j) {
+        if (frame_id_[j] == j && torch::equal(split.bone_transforms[i], split.bone_transforms[j])) {
+          frame_id_[i] = j;
+          break;
+        }
       }
     }
   }
-  std::map<int64_t, std::pair<int64_t, PosedFrame>> frames;  // id -> (occupancy version, frame)
-  int64_t occupancy_version = 0;
-  const auto frame_of = [&](int64_t image) -> const PosedFrame& {
-    auto& entry = frames[frame_id[image]];
-    if (!entry.second.bones.defined() || entry.first != occupancy_version)
-      entry = {occupancy_version, avatar->pose(split.bone_transforms[image])};
-    return entry.second;
-  };
 
-  const auto log_file = (fs::path(run_dir) / "log.jsonl").string();
-  // What a killed write left behind, and log lines past the checkpoint.
-  remove_stale_temporaries(run_dir);
-  if (options.resume) keep_log_through_step(log_file, step);
-  else write_file_atomically(log_file, std::string());
-  std::ofstream log(log_file, std::ios::app);
-  FSKIN_CHECK(log.good(), "avatar train: cannot append to {}", log_file);
-  AvatarTrainSummary summary;
-  summary.first_step = step;
-  const auto start = std::chrono::steady_clock::now();
-  ProgressBar bar("avatar train", std::max<int64_t>(options.steps - step, 0), options.progress);
-  const int64_t H = split.images.size(1), W = split.images.size(2);
-  int64_t saved = step;
-  double loss_sum = 0, psnr_sum = 0;
-  int64_t logged = 0;
-  while (step < options.steps) {
-    if (options.stop && options.stop->requested()) {
-      summary.stopped = true;
-      break;
+  std::vector<OptimizerGroup> optimizer_groups() override { return {{avatar_->parameters(), options_.learning_rate}}; }
+  std::vector<torch::Tensor> parameters() override { return avatar_->parameters(); }
+  void save(torch::serialize::OutputArchive& archive) override {
+    torch::serialize::OutputArchive model;
+    avatar_->save(model);
+    archive.write(kAvatarArchiveKey, model);
+  }
+  void load(torch::serialize::InputArchive& archive) override {
+    torch::serialize::InputArchive model;
+    archive.read(kAvatarArchiveKey, model);
+    avatar_->load(model);
+  }
+  void to(const torch::Device& device) override {
+    FSKIN_CHECK(device.is_cpu(), "avatar train: avatars train on the CPU only (asked for {})", device.str());
+  }
+
+  StepLosses step_losses(int64_t step, uint64_t seed, const Shard& shard) override {
+    const int64_t image_count = options_.images_per_step;
+    FSKIN_CHECK(shard.count == 1 || (image_count % shard.count == 0 && options_.rays_per_step % image_count == 0),
+                "avatar train: with {} ranks, images per step ({}) must be a multiple of the number of ranks and rays "
+                "per step ({}) a multiple of images per step",
+                shard.count, image_count, options_.rays_per_step);
+    if (step >= options_.occupancy_warmup && step % options_.occupancy_every == 0) {
+      avatar_->update_canonical_occupancy();
+      ++occupancy_version_;
     }
-    follow_free_cores();
-    const auto step_start = std::chrono::steady_clock::now();
-    // Seeded per step: a resumed run draws what an uninterrupted one would.
-    torch::manual_seed(options.seed * 1000003 + static_cast<uint64_t>(step));
-    if (step >= options.occupancy_warmup && step % options.occupancy_every == 0) {
-      avatar->update_canonical_occupancy();
-      ++occupancy_version;
-    }
-    const auto images = torch::randint(split.size(), {options.images_per_step}, torch::kInt64);
+    const int64_t H = split_.images.size(1), W = split_.images.size(2);
+    const auto images = torch::randint(split_.size(), {image_count}, torch::kInt64);
     std::vector<torch::Tensor> colors, opacities, targets, masks;
     int64_t samples = 0;
-    for (int64_t k = 0; k < options.images_per_step; ++k) {
+    const int64_t share = image_count / shard.count;
+    for (int64_t k = shard.index * share; k < (shard.index + 1) * share; ++k) {
+      // Each image's rays, backgrounds and jitter from (step, k) alone: a
+      // rank renders its images as one process would.
+      torch::manual_seed(step_seed(seed, k));
       const int64_t i = images[k].item<int64_t>();
-      const int64_t n = options.rays_per_step / options.images_per_step + (k < options.rays_per_step % options.images_per_step);
-      const int64_t in_box = static_cast<int64_t>(std::llround(options.mask_box_fraction * n));
-      const auto& b = boxes[i];
+      const int64_t n = options_.rays_per_step / image_count + (k < options_.rays_per_step % image_count);
+      const int64_t in_box = static_cast<int64_t>(std::llround(options_.mask_box_fraction * n));
+      const auto& b = boxes_[i];
       const auto u = torch::cat({torch::randint(b[0], b[2], {in_box}, torch::kInt64),
                                  torch::randint(0, W, {n - in_box}, torch::kInt64)});
       const auto v = torch::cat({torch::randint(b[1], b[3], {in_box}, torch::kInt64),
                                  torch::randint(0, H, {n - in_box}, torch::kInt64)});
       const auto flat = v * W + u;
-      const auto rgb = split.images[i].reshape({-1, 3}).index_select(0, flat).to(torch::kFloat32) / 255;
-      const auto mask = split.masks[i].reshape({-1}).index_select(0, flat).to(torch::kFloat32) / 255;
+      const auto rgb = split_.images[i].reshape({-1, 3}).index_select(0, flat).to(torch::kFloat32) / 255;
+      const auto mask = split_.masks[i].reshape({-1}).index_select(0, flat).to(torch::kFloat32) / 255;
       torch::Tensor background;
-      if (options.background == "random") background = torch::rand({n, 3});
-      else if (options.background == "white") background = torch::ones({n, 3});
-      else if (options.background == "black") background = torch::zeros({n, 3});
-      else background = dataset_background.expand({n, 3});
+      if (options_.background == "random") background = torch::rand({n, 3});
+      else if (options_.background == "white") background = torch::ones({n, 3});
+      else if (options_.background == "black") background = torch::zeros({n, 3});
+      else background = dataset_background_.expand({n, 3});
       // The image is the subject over the dataset's background: re-composite it over this one.
-      const auto target = rgb + (1 - mask).unsqueeze(1) * (background - dataset_background);
-      const auto [origins, directions] = camera_rays(split.cameras[i], torch::stack({u, v}, 1).to(torch::kFloat32));
-      const auto rendered = avatar->render_rays(frame_of(i), origins, directions, background, /*jitter=*/true);
+      const auto target = rgb + (1 - mask).unsqueeze(1) * (background - dataset_background_);
+      const auto [origins, directions] = camera_rays(split_.cameras[i], torch::stack({u, v}, 1).to(torch::kFloat32));
+      const auto rendered = avatar_->render_rays(frame_of(i), origins, directions, background, /*jitter=*/true);
       colors.push_back(rendered.color);
       opacities.push_back(rendered.opacity);
       targets.push_back(target);
@@ -281,67 +236,122 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
     }
     const auto color = torch::cat(colors), opacity = torch::cat(opacities);
     const auto target = torch::cat(targets), mask = torch::cat(masks);
-    // eq. 20 (Huber on colour) + eq. 21 (L1 on opacity against the mask).
-    const auto colour_loss = torch::huber_loss(color, target, at::Reduction::Mean, options.huber_delta);
-    const auto loss = colour_loss + options.opacity_weight * (opacity - mask).abs().mean();
-    const double loss_value = loss.item<double>();  // one host read per step
-    FSKIN_CHECK(std::isfinite(loss_value),
-                "{}: the loss became {} at step {} (learning rate {:g}); training stopped and the last checkpoint "
-                "(step {}) is kept: resume with a lower --lr",
-                run_dir, loss_value, step + 1, options.learning_rate, saved);
-    adam.zero_grad();
-    if (loss.requires_grad()) {
-      loss.backward();
-      const double rate =
-          options.learning_rate * cosine_decay_scale(step, options.steps, options.decay_fraction, options.decay_factor);
-      for (auto& group : adam.param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(rate);
-      adam.step();
-    }
-    ++step;
-    const double mse = (color.detach() - target).pow(2).mean().item<double>();
-    const double batch_psnr = -10 * std::log10(std::max(mse, 1e-12));
-    loss_sum += loss_value;
-    psnr_sum += batch_psnr;
-    ++logged;
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
-    if (step % options.log_every == 0 || step == options.steps) {
-      const nlohmann::json line = {{"step", step},
-                                   {"loss", loss_sum / logged},
-                                   {"psnr", psnr_sum / logged},
-                                   {"samples_per_ray", static_cast<double>(samples) / options.rays_per_step},
-                                   {"canonical_occupied", avatar->canonical_grid().occupied_fraction()},
-                                   {"seconds", seconds},
-                                   {"threads", at::get_num_threads()}};
-      log << line.dump() << "\n" << std::flush;
-      summary.final_loss = loss_sum / logged;
-      summary.final_psnr = psnr_sum / logged;
-      loss_sum = psnr_sum = 0;
-      logged = 0;
-    }
-    bar.advance(1, fmt::format("loss {:.4f} psnr {:.1f} {:.0f} samples/ray {:.2f} it/s", loss_value,
-                               batch_psnr, static_cast<double>(samples) / options.rays_per_step, 1.0 / seconds));
-    if (step % options.checkpoint_every == 0) {
-      save_checkpoint(run_dir, step, state_writer(avatar, adam, step));
-      saved = step;
-    }
+    // eq. 20 (Huber on colour) + eq. 21 (L1 on opacity against the mask),
+    // means over this rank's rays (an equal share of the step's).
+    const auto colour_loss = torch::huber_loss(color, target, at::Reduction::Mean, options_.huber_delta);
+    const auto opacity_loss = options_.opacity_weight * (opacity - mask).abs().mean();
+    const auto mse = (color.detach() - target).pow(2).mean().to(torch::kFloat64);
+    StepLosses out;
+    out.total = colour_loss + opacity_loss;
+    out.terms = {{"colour", colour_loss.detach()}, {"opacity", opacity_loss.detach()}};
+    out.metrics = {{"psnr", -10 * torch::log10(mse.clamp_min(1e-12))}};
+    out.host_metrics = {{"samples_per_ray", static_cast<double>(samples) / options_.rays_per_step},
+                        {"canonical_occupied", avatar_->canonical_grid().occupied_fraction()}};
+    out.throughput = {"rays_per_s", static_cast<double>(options_.rays_per_step) / shard.count};
+    return out;
   }
-  bar.finish();
-  if (saved != step || !find_checkpoint(run_dir, CheckpointChoice{})) save_checkpoint(run_dir, step, state_writer(avatar, adam, step));
-  summary.last_step = step;
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  std::string progress_text(const nlohmann::json& values) const override {
+    return fmt::format("loss {:.4f} psnr {:.1f} {:.0f} samples/ray", values.at("loss").get<double>(),
+                       values.at("psnr").get<double>(), values.at("samples_per_ray").get<double>());
+  }
+
+ private:
+  // The posed frame of an image's pose, made again after each occupancy update.
+  const PosedFrame& frame_of(int64_t image) {
+    auto& entry = frames_[frame_id_[image]];
+    if (!entry.second.bones.defined() || entry.first != occupancy_version_)
+      entry = {occupancy_version_, avatar_->pose(split_.bone_transforms[image])};
+    return entry.second;
+  }
+
+  Avatar avatar_;
+  const AvatarTrainOptions& options_;
+  const ImageSplit& split_;
+  std::vector<std::array<int64_t, 4>> boxes_;
+  torch::Tensor dataset_background_;
+  std::vector<int64_t> frame_id_;
+  std::map<int64_t, std::pair<int64_t, PosedFrame>> frames_;  // id -> (occupancy version, frame)
+  int64_t occupancy_version_ = 0;
+};
+
+}  // namespace
+
+AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
+  requested.validate();
+  AvatarTrainOptions options = requested;
+  const RunDirectory run(requested.out_dir);
+  check_output_apart_from_input(run.path(), requested.data_dir, "avatar train");
+  DataParallel* const parallel = requested.parallel;
+  const bool writer = parallel == nullptr || parallel->rank() == 0;
+  // One writer per run (rank 0 of several), locked before the run is read or written.
+  std::optional<RunLock> lock;
+  if (writer) lock.emplace(run.path());
+  const auto config_file = run.avatar_config_file();
+  options.resume = false;
+  if (fs::exists(config_file)) {
+    FSKIN_CHECK(requested.resume, "{} already holds an avatar run; pass --resume to continue it or use another --out",
+                run.path());
+    // The run's own settings; only the number of steps may change.
+    options = read_run_options(config_file, run.path());
+    options.steps = requested.steps;
+    options.progress = requested.progress;
+    options.stop = requested.stop;
+    options.resume = true;
+  }
+  const ImageDataset data(options.data_dir);
+  const auto split = data.load_split("train");
+  FSKIN_CHECK(split.size() > 0, "{}: the train split has no images", options.data_dir);
+  // Every rank has read whether the run exists before rank 0 writes it.
+  if (parallel) parallel->barrier();
+  if (writer) {
+    create_output_directory(run.path());
+    write_file_atomically(config_file, options_json(options).dump(2) + "\n");
+    data.character().save(run.character_file());
+  }
+
+  torch::manual_seed(options.seed);
+  AvatarTrainable trainable(Avatar(data.character(), options.avatar), options, data, split);
+  TrainerSettings settings;
+  settings.steps = options.steps;
+  settings.seed = options.seed;
+  settings.schedule.decay_fraction = options.decay_fraction;
+  settings.schedule.decay_factor = options.decay_factor;
+  settings.learning_rate = options.learning_rate;
+  settings.adam_eps = 1e-15;  // the hash table's rarely-touched entries (instant-ngp)
+  settings.log_every = options.log_every;
+  settings.checkpoint_every = options.checkpoint_every;
+  settings.resume = options.resume;
+  settings.progress = options.progress;
+  settings.progress_label = "avatar train";
+  settings.learning_rate_hint = "lower --lr";
+  settings.stop = options.stop;
+  settings.parallel = parallel;
+  const auto result = Trainer(run, settings).run(trainable);
+
+  AvatarTrainSummary summary;
+  summary.first_step = result.first_step;
+  summary.last_step = result.last_step;
+  summary.seconds = result.seconds;
+  summary.stopped = result.stopped;
+  if (!result.last_logged.is_null()) {
+    summary.final_loss = result.last_logged.at("loss").get<double>();
+    summary.final_psnr = result.last_logged.at("psnr").get<double>();
+  }
   return summary;
 }
 
 TrainedAvatar TrainedAvatar::load(const std::string& run_dir) {
-  const auto config_file = config_path(run_dir);
+  const RunDirectory run(run_dir);
+  const auto config_file = run.avatar_config_file();
   FSKIN_CHECK(fs::exists(config_file), "{}: not an avatar run (no avatar.json; train one with `fskin avatar train`)",
               run_dir);
   TrainedAvatar out;
   out.options = read_run_options(config_file, run_dir);
-  const auto character = AvatarCharacter::load((fs::path(run_dir) / "canonical.npz").string());
+  const auto character = AvatarCharacter::load(run.character_file());
   out.avatar = Avatar(character, out.options.avatar);
-  const auto loaded = load_latest_checkpoint(run_dir, state_reader(out.avatar, nullptr, out.step));
-  FSKIN_CHECK(loaded.has_value(), "{}: no intact checkpoint", run_dir);
+  out.step = load_model_checkpoint(run, CheckpointChoice{}, kAvatarArchiveKey,
+                                   [&out](torch::serialize::InputArchive& archive) { out.avatar->load(archive); });
   out.avatar->eval();
   return out;
 }

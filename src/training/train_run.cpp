@@ -12,6 +12,8 @@
 #include "fskin/data/thin_parts.h"
 #include "fskin/evaluation/evaluation_frame.h"
 #include "fskin/training/dataset_source.h"
+#include "fskin/engine/data_parallel.h"
+#include "fskin/engine/run_directory.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin {
@@ -66,7 +68,7 @@ TrainRunResult train_run(const TrainRunRequest& request,
                          const std::function<void(const TrainConfig&, int64_t frames)>& on_start) {
   FSKIN_CHECK(!request.out.empty(), "train: no run directory (--out) given");
   const auto device = parse_device(request.device, "device");
-  const auto saved = (std::filesystem::path(request.out) / "config.json").string();
+  const auto saved = RunDirectory(request.out).config_file();
   TrainConfig config = request.full ? TrainConfig::full() : TrainConfig{};
   if (!request.method.empty()) config.use_method(request.method);
   if (request.resume && std::filesystem::exists(saved)) config = TrainConfig::load_run(saved);
@@ -92,9 +94,12 @@ TrainRunResult train_run(const TrainRunRequest& request,
   TrainRunResult out;
   out.frames = dataset.size();
   out.validation_frames = static_cast<int64_t>(validation.size());
-  if (on_start) on_start(config, out.frames);
-  out.result =
-      train(config, source, {request.out, request.resume, request.progress, request.stop, &validation, device});
+  // Launched as one of several ranks (torchrun's variables): data-parallel.
+  const auto parallel = join_launch_group();
+  out.rank = parallel ? parallel->rank() : 0;
+  if (on_start && out.rank == 0) on_start(config, out.frames);
+  out.result = train(config, source,
+                     {request.out, request.resume, request.progress, request.stop, &validation, device, parallel.get()});
   out.config = config;
   return out;
 }

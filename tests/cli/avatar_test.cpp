@@ -14,7 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fskin/export/image.h"
-#include "fskin/training/run_lock.h"
+#include "fskin/engine/run_lock.h"
 #include "fskin/util/atomic_file.h"
 #include "test_util.h"
 

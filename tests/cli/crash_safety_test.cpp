@@ -22,10 +22,11 @@
 #include "fskin/data/dataset.h"
 #include "fskin/data/dataset_frame.h"
 #include "fskin/data/inside_test.h"
-#include "fskin/training/checkpoint.h"
+#include "fskin/engine/checkpoint.h"
 #include "fskin/inference/trained_run.h"
-#include "fskin/training/trainer.h"
+#include "fskin/training/occupancy_training.h"
 #include "fskin/util/atomic_file.h"
+#include "cli/cli_process.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -34,31 +35,9 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-// Runs fskin with `args` (stdout and stderr to `log`) and returns its pid.
-pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    ::dup2(fd, 1);
-    ::dup2(fd, 2);
-    ::setenv("GOMP_SPINCOUNT", "15000", 1);  // no restart for the spin count: the pid stays fskin's
-    std::vector<char*> argv;
-    std::string cli = FSKIN_CLI_PATH;
-    argv.push_back(cli.data());
-    std::vector<std::string> copy = args;
-    for (auto& a : copy) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    ::execv(cli.c_str(), argv.data());
-    ::_exit(127);
-  }
-  return pid;
-}
+using testing::wait_exit;
 
-int wait_exit(pid_t pid) {
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
+pid_t spawn(const std::vector<std::string>& args, const fs::path& log) { return testing::spawn_cli(args, log); }
 
 double run_to_end(const std::vector<std::string>& args, const fs::path& log) {
   const auto start = Clock::now();

@@ -5,7 +5,7 @@
 
 #include "fskin/geometry/mesh_topology.h"
 #include "fskin/models/model_factory.h"
-#include "fskin/training/trainer.h"
+#include "fskin/training/occupancy_training.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
 #include "training/tiny_training.h"

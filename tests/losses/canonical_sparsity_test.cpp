@@ -6,7 +6,7 @@
 
 #include "fskin/models/forward_skinning_model.h"
 #include "fskin/data/canonical_skeleton.h"
-#include "fskin/training/trainer.h"
+#include "fskin/training/occupancy_training.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
 #include "training/tiny_training.h"

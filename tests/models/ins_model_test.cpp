@@ -8,7 +8,7 @@
 #include <string>
 
 #include "fskin/models/ins_model.h"
-#include "fskin/training/trainer.h"
+#include "fskin/training/occupancy_training.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
 #include "training/tiny_training.h"

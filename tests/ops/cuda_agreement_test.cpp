@@ -19,7 +19,7 @@
 #include "fskin/ops/hash_encoding.h"
 #include "fskin/ops/pin_pass.h"
 #include "fskin/ops/ray_compositing.h"
-#include "fskin/training/trainer.h"
+#include "fskin/training/occupancy_training.h"
 #include "invertible/invertible_test_util.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"

@@ -9,7 +9,7 @@
 
 #include "fskin/evaluation/evaluation.h"
 #include "fskin/skeleton/rotations.h"
-#include "fskin/training/trainer.h"
+#include "fskin/training/occupancy_training.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
 #include "training/tiny_training.h"

@@ -9,7 +9,7 @@
 #include "fskin/data/dataset.h"
 #include "fskin/data/canonical_skeleton.h"
 #include "fskin/models/occupancy_model.h"
-#include "fskin/training/checkpoint.h"
+#include "fskin/engine/checkpoint.h"
 #include "fskin/training/train_config.h"
 
 namespace fskin {

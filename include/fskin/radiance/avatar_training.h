@@ -1,17 +1,17 @@
 #pragma once
 // Training an avatar from an image dataset (Fast-SNARF sec. 7): batches of
 // rays from the training images, Huber loss on colour (eq. 20) plus L1 on
-// opacity against the mask (eq. 21), Adam. Crash-safe like the scan trainer:
-// checkpoints (training/checkpoint.h) every `checkpoint_every` steps and on
-// Ctrl-C, `resume` continues from the newest intact one; a progress bar and
-// a JSON-lines log.
-// A run directory holds avatar.json (options, dataset), canonical.npz (the
-// character), checkpoint-*.fskin and log.jsonl.
+// opacity against the mask (eq. 21), Adam, run by the engine's Trainer
+// (engine/trainer.h: checkpoints every `checkpoint_every` steps and on
+// Ctrl-C, `resume` from the newest intact one, a progress bar, log.jsonl with
+// the mean of every log_every steps). The run directory (engine/run_directory.h)
+// holds avatar.json (options, dataset) and canonical.npz (the character).
 #include <cstdint>
 #include <string>
 
 #include "fskin/radiance/avatar.h"
-#include "fskin/training/stop_signal.h"
+#include "fskin/engine/data_parallel.h"
+#include "fskin/engine/stop_signal.h"
 
 namespace fskin {
 
@@ -26,7 +26,7 @@ struct AvatarTrainOptions {
   double mask_box_fraction = 0.9;
   double learning_rate = 1e-2;  // Adam, hash table and MLP
   // Cosine decay of the learning rate to decay_factor x over the last
-  // decay_fraction of the steps (training/trainer.h, cosine_decay_scale).
+  // decay_fraction of the steps (engine/trainer.h, LearningRateSchedule).
   double decay_fraction = 0.5, decay_factor = 0.05;
   double huber_delta = 0.1;     // eq. 20
   double opacity_weight = 0.1;  // eq. 21
@@ -42,6 +42,9 @@ struct AvatarTrainOptions {
   bool resume = false;
   bool progress = true;
   const StopSignal* stop = nullptr;  // the CLI's Ctrl-C handler; checked before every step
+  // Data-parallel ranks (engine/data_parallel.h); null: one process. Each
+  // rank renders images_per_step / ranks of the step's images.
+  DataParallel* parallel = nullptr;
   void validate() const;
 };
 

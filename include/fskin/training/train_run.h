@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "fskin/training/stop_signal.h"
+#include "fskin/engine/stop_signal.h"
 #include "fskin/training/train_config.h"
-#include "fskin/training/trainer.h"
+#include "fskin/training/occupancy_training.h"
 
 namespace fskin {
 
@@ -33,9 +33,11 @@ struct TrainRunResult {
   int64_t frames = 0;             // training frames
   int64_t validation_frames = 0;  // frames the best checkpoint is chosen on
   TrainResult result;
+  int rank = 0;  // this process's rank when launched as several (engine/data_parallel.h)
 };
 
-// on_start(config, frames) runs once the data is loaded, before the first step.
+// on_start(config, frames) runs once the data is loaded, before the first step
+// (on rank 0 only when launched as several ranks: engine/data_parallel.h).
 TrainRunResult train_run(const TrainRunRequest& request,
                          const std::function<void(const TrainConfig&, int64_t frames)>& on_start = {});
 

@@ -18,7 +18,7 @@
 #include "fskin/radiance/avatar_evaluation.h"
 #include "fskin/radiance/avatar_mesh.h"
 #include "fskin/radiance/avatar_training.h"
-#include "fskin/training/stop_signal.h"
+#include "fskin/engine/stop_signal.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin::cli {
@@ -86,7 +86,11 @@ void register_avatar(CLI::App& app) {
     AvatarTrainOptions options = *train;
     options.progress = !*quiet;
     options.stop = &stop;
+    // Launched as one of several ranks (torchrun's variables): data-parallel.
+    const auto parallel = join_launch_group();
+    options.parallel = parallel.get();
     const auto summary = train_avatar(options);
+    if (parallel && parallel->rank() != 0) return;
     std::printf("%s: steps %lld -> %lld in %.1f s; last loss %.5f, batch PSNR %.2f dB%s\n", options.out_dir.c_str(),
                 static_cast<long long>(summary.first_step), static_cast<long long>(summary.last_step), summary.seconds,
                 summary.final_loss, summary.final_psnr, summary.stopped ? " (stopped; --resume continues)" : "");

@@ -1,4 +1,4 @@
-#include "fskin/training/checkpoint.h"
+#include "fskin/engine/checkpoint.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>

@@ -1,4 +1,4 @@
-#include "fskin/training/checkpoint.h"
+#include "fskin/engine/checkpoint.h"
 
 #include <gtest/gtest.h>
 #include <torch/torch.h>

@@ -24,6 +24,7 @@
 #include "fskin/io/mesh_io.h"
 #include "fskin/inference/posed_meshing.h"
 #include "fskin/inference/trained_run.h"
+#include "fskin/engine/run_directory.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin::cli {
@@ -199,8 +200,7 @@ void register_animate(CLI::App& app) {
     if (!opt->run.empty()) {
       FSKIN_CHECK(opt->pose.empty() && !opt->color_by_bone,
                   "animate RUN --poses: --pose and --color-by-bone belong to the glTF modes");
-      const auto method = TrainConfig::load_run((std::filesystem::path(opt->run) / "config.json").string())
-                              .method;
+      const auto method = TrainConfig::load_run(RunDirectory(opt->run).config_file()).method;
       if (opt->repose || (method == "ins" && !opt->per_pose)) {
         repose_run_poses(opt->run, opt->run_poses, opt->data, opt->model, opt->meshing, opt->out, opt->fps,
                          opt->quiet);

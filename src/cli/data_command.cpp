@@ -7,7 +7,7 @@
 #include "cli/commands.h"
 #include "fskin/body/body_model.h"
 #include "fskin/data/dataset_builder.h"
-#include "fskin/data/stick2d.h"
+#include "fskin/benchmarking/stick2d.h"
 #include "fskin/radiance/image_dataset.h"
 
 namespace fskin::cli {

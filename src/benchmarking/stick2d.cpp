@@ -1,4 +1,4 @@
-#include "fskin/data/stick2d.h"
+#include "fskin/benchmarking/stick2d.h"
 #include "fskin/data/dataset.h"
 
 #include <torch/torch.h>

@@ -1,4 +1,4 @@
-#include "fskin/training/trainer.h"
+#include "fskin/training/occupancy_training.h"
 
 #include <gtest/gtest.h>
 #include <torch/torch.h>
@@ -7,8 +7,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "fskin/training/checkpoint.h"
-#include "fskin/training/run_lock.h"
+#include "fskin/engine/checkpoint.h"
+#include "fskin/engine/run_lock.h"
 #include "fskin/evaluation/evaluation.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
@@ -172,8 +172,7 @@ INSTANTIATE_TEST_SUITE_P(Methods, TrainerResume, ::testing::Values("fast-snarf",
 
 // A seed and a thread count fix a run: its log and its parameters repeat
 // exactly. (Across thread counts the reductions are split differently and the
-// runs part in the last digits, then further; docs/benchmarks.md, "Seeds and
-// threads".)
+// runs part in the last digits, then further; docs/benchmarks.md#seeds-and-threads.)
 TEST(Trainer, RepeatsExactlyForASeedAndAThreadCount) {
   const SyntheticLimb limb(training_angles());
   TrainConfig config = resume_config("fast-snarf");

@@ -24,9 +24,4 @@ class RunLock {
   int fd_ = -1;
 };
 
-// On resume a log keeps only the lines of steps the checkpoint contains
-// (lines with "step" <= `step`; lines cut by a kill are dropped), so a run
-// killed after its last checkpoint does not log those steps twice.
-void keep_log_through_step(const std::string& log_path, int64_t step);
-
 }  // namespace fskin

@@ -1,13 +1,10 @@
 #pragma once
-// The training loop of every model: BCE on posed occupancy with the soft-max
-// aggregation, plus the bootstrap losses during the first epoch and the
-// configured priors (losses/); Adam. The run directory holds config.json,
-// log.jsonl (one JSON object per step) and checkpoints (model, optimiser, step)
-// written atomically every checkpoint_every steps and at exit. With
-// validate_every > 0 the model is evaluated on validation frames every that
-// many steps (validation.jsonl) and the best by IoU_surf is kept as
-// checkpoint-best.fskin (best.json). Batches depend only on (seed, step), so a
-// resumed run continues the very same schedule bit for bit.
+// Training an occupancy model (SNARF, Fast-SNARF, INS, the baselines) from a
+// TrainConfig: the config written to the run, the model built, then the
+// engine's Trainer (engine/trainer.h) runs the loop on an OccupancyTrainable
+// (training/occupancy_trainable.h): a log line per step, checkpoints every
+// checkpoint_every steps and at exit, and with validate_every > 0 the best
+// checkpoint by IoU_surf on the validation frames (best.json).
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -15,8 +12,9 @@
 #include "fskin/evaluation/evaluation_frame.h"
 #include "fskin/models/occupancy_model.h"
 #include "fskin/training/batch_source.h"
-#include "fskin/training/checkpoint.h"
-#include "fskin/training/stop_signal.h"
+#include "fskin/engine/checkpoint.h"
+#include "fskin/engine/stop_signal.h"
+#include "fskin/engine/trainer.h"
 #include "fskin/training/train_config.h"
 
 namespace fskin {
@@ -31,6 +29,8 @@ struct TrainOptions {
   // Where the model and every batch live (core/device.h); data loading and
   // sampling stay on the host, so a run's batches are the same on any device.
   torch::Device device = torch::kCPU;
+  // Data-parallel ranks (engine/data_parallel.h); null: one process.
+  DataParallel* parallel = nullptr;
 };
 
 struct TrainResult {
@@ -43,14 +43,9 @@ struct TrainResult {
   double best_iou_surf = 0;
 };
 
-// Seed of everything random in step `step` of a run seeded with `seed`.
-uint64_t step_seed(uint64_t seed, int64_t step);
-
-// The learning-rate multiplier of step `step`: linear warm-up, 1, then a
-// cosine decay over the last decay_fraction of config.steps.
-// The cosine decay of learning_rate_scale alone: 1 until the last
-// decay_fraction of `steps`, then down to decay_factor at the last step.
-double cosine_decay_scale(int64_t step, int64_t steps, double decay_fraction, double decay_factor);
+// The config's learning-rate schedule (warm-up, then cosine decay), and its
+// multiplier at one step.
+LearningRateSchedule learning_rate_schedule(const TrainConfig& config);
 double learning_rate_scale(const TrainConfig& config, int64_t step);
 
 TrainResult train(const TrainConfig& config, const BatchSource& source, const TrainOptions& options);

@@ -1,4 +1,4 @@
-#include "fskin/training/run_lock.h"
+#include "fskin/engine/run_lock.h"
 
 #include <fcntl.h>
 #include <sys/file.h>
@@ -7,8 +7,6 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
-#include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "fskin/core/error.h"
 #include "fskin/util/atomic_file.h"
@@ -42,20 +40,6 @@ RunLock::RunLock(const std::string& run_dir) {
 
 RunLock::~RunLock() {
   if (fd_ >= 0) ::close(fd_);  // releases the flock
-}
-
-void keep_log_through_step(const std::string& log_path, int64_t step) {
-  if (!std::filesystem::exists(log_path)) return;
-  std::istringstream in(read_file(log_path));
-  std::string kept, line;
-  while (std::getline(in, line)) {
-    try {
-      if (nlohmann::json::parse(line).at("step").get<int64_t>() <= step) kept += line + "\n";
-    } catch (const nlohmann::json::exception&) {
-      // A line cut by a kill: dropped.
-    }
-  }
-  write_file_atomically(log_path, kept);
 }
 
 }  // namespace fskin

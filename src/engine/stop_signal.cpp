@@ -1,4 +1,4 @@
-#include "fskin/training/stop_signal.h"
+#include "fskin/engine/stop_signal.h"
 
 #include <atomic>
 #include <csignal>

@@ -5,7 +5,7 @@
 #include "cli/commands.h"
 #include "fskin/core/device.h"
 #include "fskin/models/method.h"
-#include "fskin/training/stop_signal.h"
+#include "fskin/engine/stop_signal.h"
 #include "fskin/training/train_run.h"
 
 namespace fskin::cli {
@@ -52,6 +52,7 @@ void register_train(CLI::App& app) {
                   opt->out.c_str());
       std::fflush(stdout);
     });
+    if (run.rank != 0) return;  // rank 0 reports for every rank
     const auto& config = run.config;
     const auto& result = run.result;
     if (result.skinning_prior_loss > 0) {

@@ -1,4 +1,4 @@
-#include "fskin/data/stick2d.h"
+#include "fskin/benchmarking/stick2d.h"
 
 #include <gtest/gtest.h>
 #include <torch/torch.h>
