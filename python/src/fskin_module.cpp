@@ -37,6 +37,7 @@
 #include "fskin/radiance/avatar_evaluation.h"
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/radiance/image_dataset.h"
+#include "fskin/radiance/image_dataset_builder.h"
 #include "fskin/export/skinned_gltf.h"
 #include "fskin/inference/posed_meshing.h"
 #include "fskin/inference/rigged_avatar.h"

@@ -9,6 +9,7 @@
 #include "fskin/data/dataset_builder.h"
 #include "fskin/benchmarking/stick2d.h"
 #include "fskin/radiance/image_dataset.h"
+#include "fskin/radiance/image_dataset_builder.h"
 
 namespace fskin::cli {
 

@@ -49,6 +49,12 @@ DatasetPosing DatasetPosing::load(const std::string& data_dir, const std::string
   return DatasetPosing(std::move(model), pose, bones);
 }
 
+DatasetPosing DatasetPosing::from_model(BodyModel model, const torch::Tensor& canonical_pose) {
+  const auto pose = canonical_pose.to(torch::kFloat32);
+  const auto bones = model.pose(pose.unsqueeze(0)).bone_transforms;  // [1, J, 4, 4] rest -> canonical
+  return DatasetPosing(std::move(model), pose, bones);
+}
+
 torch::Tensor DatasetPosing::bone_transforms(const PoseSet& poses, const std::string& context) const {
   poses.validate(context, model_.num_joints(), model_.data().joint_names);
   const auto posed = model_.pose(poses.poses.to(torch::kFloat32), {}, poses.trans.to(torch::kFloat32),

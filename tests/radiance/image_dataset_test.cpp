@@ -1,4 +1,5 @@
 #include "fskin/radiance/image_dataset.h"
+#include "fskin/radiance/image_dataset_builder.h"
 
 #include <gtest/gtest.h>
 #include <torch/torch.h>

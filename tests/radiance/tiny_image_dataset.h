@@ -10,6 +10,7 @@
 #include "fskin/body/character.h"
 #include "fskin/data/pose_generators.h"
 #include "fskin/radiance/image_dataset.h"
+#include "fskin/radiance/image_dataset_builder.h"
 #include "test_util.h"
 
 namespace fskin::testing {

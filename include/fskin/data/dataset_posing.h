@@ -18,6 +18,9 @@ class DatasetPosing {
   // throws fskin::Error naming the dataset when that file is missing or is
   // not the model the dataset was built from (other canonical bones).
   static DatasetPosing load(const std::string& data_dir, const std::string& model_path = "");
+  // A body model and the canonical pose [J, 3] it was posed in (image datasets
+  // record the model and the pose option; radiance/image_dataset.h).
+  static DatasetPosing from_model(BodyModel model, const torch::Tensor& canonical_pose);
 
   const BodyModel& model() const { return model_; }
   int64_t num_joints() const { return model_.num_joints(); }

@@ -11,65 +11,25 @@
 //   <split>/images/image_%04d.png, <split>/masks/mask_%04d.png
 //   <split>/poses.npz       bone_transforms (N, J, 4, 4) canonical -> posed,
 //                           pose_index (N,), view_index (N,)
-// build_image_dataset renders the built-in (or any SMPL-format) character with
-// SurfaceTexture: multi-view (cameras on a ring) or monocular (one camera, the
-// subject turning about +Y). Splits: train (training poses x training views),
-// novel_view (training poses x held-out views) and novel_pose (held-out poses
-// x held-out views).
+// Splits: train, novel_view, novel_pose (radiance/image_dataset_builder.h
+// renders them). This header reads a dataset; the character is
+// radiance/avatar_character.h.
 #include <torch/types.h>
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
-#include "fskin/body/body_model.h"
+#include "fskin/radiance/avatar_character.h"
 #include "fskin/data/pose_set.h"
 #include "fskin/radiance/pinhole_camera.h"
 
 namespace fskin {
 
-struct ImageDatasetOptions {
-  std::string out_dir;
-  int width = 256, height = 256;
-  int supersampling = 3;  // s x s samples per pixel (anti-aliased edges and masks)
-  int training_views = 4;  // cameras on a ring, azimuths 360 k / n from the front
-  int held_out_views = 4;  // between the training ones
-  // One training camera in front; the subject turns once about +Y over the
-  // training frames (PeopleSnapshot's capture); held-out views as above.
-  bool monocular = false;
-  double elevation_degrees = 10;
-  double vertical_fov_degrees = 30;
-  int novel_view_frames = 8;  // training poses (evenly spread) seen from the held-out views
-  std::array<double, 3> background{1.0, 1.0, 1.0};
-  std::string canonical_pose = "default";  // dataset_builder.h
-  std::string model_source, poses_source, ood_poses_source;  // recorded in the manifest
-  bool progress = true;
-  void validate() const;
-};
-
-struct ImageDatasetSummary {
-  int64_t images_written = 0, images_skipped = 0;
-  int64_t train = 0, novel_view = 0, novel_pose = 0;
-  std::string to_string() const;
-};
-
-// Renders the dataset; resumable (images are written atomically and existing
-// ones skipped; a directory built with other parameters is refused).
-ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& poses,
-                                        const PoseSet& held_out_poses, const ImageDatasetOptions& options);
-
-// The character of an image dataset (canonical.npz).
-struct AvatarCharacter {
-  torch::Tensor vertices;  // [V, 3] canonical
-  torch::Tensor faces;     // [F, 3] int64
-  torch::Tensor weights;   // [V, J]
-  torch::Tensor joints;    // [J, 3] canonical
-  std::vector<std::string> joint_names;
-  std::vector<int64_t> parents;
-  int64_t num_joints() const { return static_cast<int64_t>(parents.size()); }
-  static AvatarCharacter load(const std::string& path);
-  void save(const std::string& path) const;
-};
+// The format version manifest.json records, and the file names of image i.
+constexpr int kImageDatasetFormatVersion = 1;
+std::string image_file_name(int64_t index);  // image_%04d.png
+std::string mask_file_name(int64_t index);   // mask_%04d.png
 
 // One split in memory.
 struct ImageSplit {
