@@ -213,20 +213,6 @@ TEST(EngineTrainer, RefusesAModelWithParametersOutsideItsGroups) {
                         {"parameter groups hold 1 of its 2 parameters"});
 }
 
-TEST(LearningRateSchedule, WarmsUpHoldsAndDecays) {
-  LearningRateSchedule s;
-  s.steps = 100;
-  s.warmup_steps = 10;
-  s.warmup_factor = 0.2;
-  s.decay_fraction = 0.4;
-  s.decay_factor = 0.1;
-  EXPECT_DOUBLE_EQ(s.scale(0), 0.2);
-  EXPECT_DOUBLE_EQ(s.scale(5), 0.6);
-  EXPECT_DOUBLE_EQ(s.scale(60), 1.0);
-  EXPECT_NEAR(s.scale(80), 0.55, 1e-12);
-  EXPECT_NEAR(s.scale(100), 0.1, 1e-12);
-}
-
 TEST(RunDirectory, NamesEveryFileOfARun) {
   const RunDirectory run("/runs/a");
   EXPECT_EQ(run.config_file(), "/runs/a/config.json");
