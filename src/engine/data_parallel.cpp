@@ -7,7 +7,6 @@
 #endif
 
 #include <cstdlib>
-#include <limits>
 
 #include "fskin/core/error.h"
 

@@ -7,7 +7,6 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <map>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -15,19 +14,11 @@
 #include "fskin/core/error.h"
 #include "fskin/core/plausibility.h"
 #include "fskin/core/tensor_checks.h"
-#include "fskin/data/build_manifest.h"
 #include "fskin/data/dataset_builder.h"
 #include "fskin/data/dataset_posing.h"
 #include "fskin/export/image.h"
-#include "fskin/export/render.h"
 #include "fskin/io/npz.h"
-#include "fskin/radiance/surface_texture.h"
-#include "fskin/skeleton/forward_kinematics.h"
-#include "fskin/skeleton/lbs.h"
-#include "fskin/skeleton/skeleton.h"
 #include "fskin/util/atomic_file.h"
-#include "fskin/util/progress.h"
-#include "fskin/version.h"
 
 namespace fskin {
 namespace {
