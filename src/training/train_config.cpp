@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "fskin/core/error.h"
+#include "fskin/training/config_schema.h"
 #include "fskin/deformers/start_bones.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/util/atomic_file.h"
@@ -64,7 +65,9 @@ void TrainConfig::use_method(const std::string& name) {
   }
 }
 
-std::string TrainConfig::to_json() const { return nlohmann::json(*this).dump(2) + "\n"; }
+std::string TrainConfig::to_json() const { return nest_config(nlohmann::json(*this)).dump(2) + "\n"; }
+
+std::string TrainConfig::to_flat_json() const { return nlohmann::json(*this).dump(2) + "\n"; }
 
 namespace {
 
@@ -91,12 +94,9 @@ nlohmann::json parse_object(const std::string& text, const std::string& context)
 }  // namespace
 
 TrainConfig TrainConfig::from_json(const std::string& text, const std::string& context, const TrainConfig& base) {
-  const nlohmann::json overlay = parse_object(text, context);
+  const nlohmann::json overlay = flatten_config(parse_object(text, context), context);
   nlohmann::json merged = base;
-  for (const auto& [key, value] : overlay.items()) {
-    FSKIN_CHECK(merged.contains(key), "{}: unknown config key '{}'", context, key);
-    merged[key] = value;
-  }
+  for (const auto& [key, value] : overlay.items()) merged[key] = value;
   TrainConfig config;
   try {
     config = merged.get<TrainConfig>();
@@ -118,8 +118,10 @@ TrainConfig TrainConfig::load_run(const std::string& path) {
       {"pin_space_output", "sine"}, {"pin_space_omega", 30.0}, {"pin_pose_frame", "global"}, {"pin_bone_dropout", 0.0},
       {"grid_resolution", 0}, {"thin_part_grid_resolution", 0}, {"occupancy_hash_levels", 0}, {"bootstrap_bones", "all"}};
   nlohmann::json saved = parse_object(read_file(path), path);
+  // Run directories written before the nested layout hold flat documents.
+  const bool flat = !(saved.contains("model") && saved["model"].is_object());
   for (const auto& [key, value] : kBeforeTheKeyExisted) {
-    if (!saved.contains(key)) saved[key] = value;
+    if (flat && !saved.contains(key)) saved[key] = value;
   }
   return from_json(saved.dump(), path, TrainConfig{});
 }
@@ -134,75 +136,23 @@ void TrainConfig::set(const std::string& assignment) {
   } catch (const nlohmann::json::exception&) {
     value = text;  // a bare string such as method=snarf
   }
-  *this = from_json(nlohmann::json{{key, value}}.dump(), "--set " + assignment, *this);
+  // A nested path (model.deformer.grid.resolution=48) or a flat name (grid_resolution=48).
+  *this = from_json(config_overlay(key, value).dump(), "--set " + assignment, *this);
 }
 
 void TrainConfig::validate() const {
-  parse_method(method);
-  FSKIN_CHECK(steps >= 0, "config: steps {} must be >= 0", steps);
-  FSKIN_CHECK(frames_per_batch >= 1 && surface_points >= 0 && uniform_points >= 0 &&
-                  surface_points + uniform_points >= 1,
-              "config: batch of {} frames x ({} + {}) points is empty", frames_per_batch, surface_points,
-              uniform_points);
-  FSKIN_CHECK(learning_rate > 0 && learning_rate <= 1, "config: learning_rate {} must be in (0, 1] (Adam's steps are "
-              "about this size; the default is 1e-3)", learning_rate);
-  FSKIN_CHECK(grad_clip >= 0 && bootstrap_epochs >= 0 && joint_weight_loss_weight >= 0,
-              "config: grad_clip, bootstrap_epochs and joint_weight_loss_weight must be >= 0");
-  FSKIN_CHECK(skinning_prior_steps >= 0, "config: skinning_prior_steps {} must be >= 0", skinning_prior_steps);
-  FSKIN_CHECK(checkpoint_every >= 1 && keep_checkpoints >= 1, "config: checkpoint_every {} and keep_checkpoints {} must be >= 1",
-              checkpoint_every, keep_checkpoints);
-  FSKIN_CHECK(validate_every >= 0 && validation_frames >= 1,
-              "config: validate_every {} must be >= 0 and validation_frames {} >= 1", validate_every,
-              validation_frames);
-  FSKIN_CHECK(grid.size() == 3 && *std::min_element(grid.begin(), grid.end()) >= 2,
-              "config: grid must be [depth, height, width], each >= 2");
-  FSKIN_CHECK(grid_resolution == 0 || (grid_resolution >= 4 && grid_resolution <= 1024),
-              "config: grid_resolution {} must be 0 (use grid) or from 4 to 1024", grid_resolution);
-  FSKIN_CHECK(thin_part_grid_resolution == 0 || (thin_part_grid_resolution >= 4 && thin_part_grid_resolution <= 1024),
-              "config: thin_part_grid_resolution {} must be 0 (off) or from 4 to 1024", thin_part_grid_resolution);
-  FSKIN_CHECK(thin_part_fraction >= 0 && thin_part_fraction <= 1, "config: thin_part_fraction {} must be in [0, 1]",
-              thin_part_fraction);
-  FSKIN_CHECK(grid_padding >= 0 && grid_padding <= 1, "config: grid_padding {} must be in [0, 1]", grid_padding);
-  FSKIN_CHECK(max_iterations >= 0 && eval_chunk_points >= 1, "config: max_iterations and eval_chunk_points out of range");
-  FSKIN_CHECK(start_bones == "default" || start_bones == "smpl-training" || start_bones == "all" ||
-                  start_bones.rfind("automatic:", 0) == 0,
-              "config: start_bones '{}' must be default, smpl-training, all or automatic:K", start_bones);
-  if (start_bones.rfind("automatic:", 0) == 0) automatic_start_count(start_bones);
-  FSKIN_CHECK(warmup_steps >= 0 && warmup_factor > 0 && warmup_factor <= 1,
-              "config: warmup_steps {} must be >= 0 and warmup_factor {} in (0, 1]", warmup_steps, warmup_factor);
-  FSKIN_CHECK(decay_fraction >= 0 && decay_fraction <= 1 && decay_factor > 0 && decay_factor <= 1,
-              "config: decay_fraction {} must be in [0, 1] and decay_factor {} in (0, 1]", decay_fraction,
-              decay_factor);
-  FSKIN_CHECK(pin_layers >= 1 && pin_per_bone_dim >= 1 && pin_pose_hidden_dim >= 1 && pin_space_hidden_dim >= 1 &&
-                  pin_map_hidden_dim >= 1 && pin_learning_rate_factor > 0 && skinning_learning_rate_factor > 0 &&
-                  pin_space_omega > 0 && std::isfinite(pin_space_omega),
-              "config: pin_* sizes, pin_space_omega and the pin / skinning learning-rate factors must be positive");
-  FSKIN_CHECK(canonical_sparsity_weight >= 0 && std::isfinite(canonical_sparsity_weight) &&
-                  canonical_sparsity_points >= 1,
-              "config: canonical_sparsity_weight ({}) must be >= 0 and canonical_sparsity_points ({}) >= 1",
-              canonical_sparsity_weight, canonical_sparsity_points);
-  parse_rotation_encoding(pin_rotation);
-  parse_pose_frame(pin_pose_frame);
-  FSKIN_CHECK(pin_bone_dropout >= 0 && pin_bone_dropout < 1, "config: pin_bone_dropout {} must be in [0, 1)",
-              pin_bone_dropout);
-  FSKIN_CHECK(pin_space_output == "sine" || pin_space_output == "linear",
-              "config: pin_space_output must be \"sine\" or \"linear\", got \"{}\"", pin_space_output);
-  FSKIN_CHECK(bootstrap_bones == "all" || bootstrap_bones == "in-body",
-              "config: bootstrap_bones must be \"all\" or \"in-body\", got \"{}\"", bootstrap_bones);
-  FSKIN_CHECK(snarf_roots == "converged" || snarf_roots == "in-box",
-              "config: snarf_roots must be \"converged\" or \"in-box\", got \"{}\"", snarf_roots);
-  FSKIN_CHECK(implicit_gradient == "default" || implicit_gradient == "exact" || implicit_gradient == "approximate",
-              "config: implicit_gradient must be \"default\", \"exact\" or \"approximate\", got \"{}\"",
-              implicit_gradient);
-  FSKIN_CHECK(part_hidden_dim >= 1 && part_hidden_layers >= 1, "config: part_hidden_dim and part_hidden_layers must be >= 1");
-  FSKIN_CHECK(occupancy_hash_levels >= 0 && occupancy_hash_levels <= 32 && occupancy_hash_log2_table_size >= 4 &&
-                  occupancy_hash_log2_table_size <= 24 && occupancy_hash_base_resolution >= 1 &&
-                  occupancy_hash_finest_resolution >= occupancy_hash_base_resolution &&
-                  occupancy_hash_finest_resolution <= (1 << 20),
-              "config: occupancy_hash_levels ({}) must be in 0..32, occupancy_hash_log2_table_size ({}) in 4..24, "
-              "and 1 <= occupancy_hash_base_resolution ({}) <= occupancy_hash_finest_resolution ({}) <= 2^20",
-              occupancy_hash_levels, occupancy_hash_log2_table_size, occupancy_hash_base_resolution,
-              occupancy_hash_finest_resolution);
+  // Each key on its own (config_schema.cpp), then what keys must satisfy together.
+  check_config_values(nlohmann::json(*this), "config");
+  FSKIN_CHECK(surface_points + uniform_points >= 1,
+              "config: data.surface_points + data.uniform_points: a frame's batch of {} + {} points is empty",
+              surface_points, uniform_points);
+  FSKIN_CHECK(occupancy_hash_finest_resolution >= occupancy_hash_base_resolution,
+              "config: model.canonical.encoding.hash.finest_resolution ({}) must be >= its base_resolution ({})",
+              occupancy_hash_finest_resolution, occupancy_hash_base_resolution);
+  FSKIN_CHECK(pose_layer <= occupancy_hidden_layers,
+              "config: model.canonical.pose_conditioning.layer ({}) must be at most "
+              "model.canonical.network.hidden_layers ({})",
+              pose_layer, occupancy_hidden_layers);
 }
 
 int64_t TrainConfig::bootstrap_steps(int64_t frames) const {

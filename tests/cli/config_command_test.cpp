@@ -27,8 +27,8 @@ TEST(ConfigCommand, ShowsAMethodsResolvedDefaults) {
   std::string out;
   ASSERT_EQ(run_cli({"config", "show", "ins", "--set", "steps=77"}, out), 0) << out;
   const auto config = nlohmann::json::parse(out);
-  EXPECT_EQ(config.at("method"), "ins");
-  EXPECT_EQ(config.at("grad_clip").get<double>(), 4.0);  // use_method("ins")
+  EXPECT_EQ(config.at("model").at("type"), "ins");
+  EXPECT_EQ(config.at("optimizer").at("grad_clip").get<double>(), 4.0);  // use_method("ins")
   EXPECT_EQ(config.at("steps").get<int64_t>(), 77);
   ASSERT_EQ(run_cli({"config", "show", "fast-snarf", "--full"}, out), 0) << out;
   EXPECT_GT(nlohmann::json::parse(out).at("steps").get<int64_t>(), 1000);  // the paper's schedule
@@ -36,13 +36,14 @@ TEST(ConfigCommand, ShowsAMethodsResolvedDefaults) {
 
 TEST(ConfigCommand, ShowsARunsConfigAndRefusesOtherFolders) {
   const auto run = testing::temp_dir("config_command_run");
+  // A flat config, as run directories written before the nested layout hold.
   write_file_atomically((run / "config.json").string(), R"({"method": "snarf", "steps": 12})");
   std::string out;
   ASSERT_EQ(run_cli({"config", "show", run.string()}, out), 0) << out;
   const auto config = nlohmann::json::parse(out);
-  EXPECT_EQ(config.at("method"), "snarf");
+  EXPECT_EQ(config.at("model").at("type"), "snarf");
   EXPECT_EQ(config.at("steps").get<int64_t>(), 12);
-  EXPECT_TRUE(config.contains("learning_rate"));  // every key, resolved
+  EXPECT_TRUE(config.at("optimizer").contains("learning_rate"));  // every key, resolved, nested
 
   const auto empty = testing::temp_dir("config_command_empty");
   EXPECT_NE(run_cli({"config", "show", empty.string()}, out), 0);

@@ -5,9 +5,11 @@
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <regex>
 
 #include "fskin/body/smpl_skeleton.h"
 #include "fskin/core/error.h"
+#include "fskin/training/config_schema.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -30,7 +32,7 @@ TEST(TrainConfig, BadInputNamesTheProblem) {
   TrainConfig c;
   testing::expect_error([&] { c.set("stepz=3"); }, {"unknown config key 'stepz'"});
   testing::expect_error([&] { c.set("method=nasa"); }, {"unknown method 'nasa'"});
-  testing::expect_error([&] { c.set("steps=\"many\""); }, {"--set steps", "wrong value type"});
+  testing::expect_error([&] { c.set("steps=\"many\""); }, {"--set steps", "steps: must be a whole number", "\"many\""});
   testing::expect_error([&] { c.set("pin_space_output=\"cosine\""); }, {"pin_space_output", "\"cosine\""});
   testing::expect_error([&] { c.set("pin_space_omega=0"); }, {"pin_space_omega"});
   testing::expect_error([&] { c.set("snarf_roots=inside"); }, {"snarf_roots", "\"inside\""});
@@ -40,6 +42,61 @@ TEST(TrainConfig, BadInputNamesTheProblem) {
     testing::expect_error([&] { c.set(std::string("start_bones=") + bad); }, {"start_bones", bad, "1 to 9999"});
   }
   testing::expect_error([&] { c.set("validate_every=-1"); }, {"validate_every"});
+}
+
+TEST(TrainConfig, DocumentsAreNestedPerComponentWithTypes) {
+  TrainConfig c;
+  c.set("model.deformer.grid.resolution=40");
+  c.set("occupancy_hash_levels=8");  // a flat name still works, and selects the hash encoding
+  const auto doc = nlohmann::json::parse(c.to_json());
+  EXPECT_EQ(doc.at("model").at("type"), "fast-snarf");
+  EXPECT_EQ(doc.at("model").at("deformer").at("grid").at("resolution"), 40);
+  EXPECT_EQ(doc.at("model").at("canonical").at("encoding").at("type"), "frequency+hash");
+  EXPECT_EQ(doc.at("model").at("canonical").at("encoding").at("hash").at("levels"), 8);
+  EXPECT_EQ(doc.at("optimizer").at("type"), "adam");
+  EXPECT_EQ(doc.at("schedule").at("type"), "warmup-cosine");
+  EXPECT_EQ(doc.at("losses").at("canonical_sparsity").at("weight"), 0.3);
+  EXPECT_FALSE(doc.contains("grid_resolution"));
+  // Every key appears once, at its path.
+  for (const auto& key : config_keys()) {
+    const auto pointer = "/" + std::regex_replace(key.path, std::regex("\\."), "/");
+    EXPECT_TRUE(doc.contains(nlohmann::json::json_pointer(pointer))) << key.path;
+  }
+  // The nested and the flat document describe the same config.
+  const auto from_nested = TrainConfig::from_json(c.to_json(), "nested", TrainConfig::full());
+  const auto from_flat = TrainConfig::from_json(c.to_flat_json(), "flat", TrainConfig::full());
+  EXPECT_EQ(from_nested.to_json(), c.to_json());
+  EXPECT_EQ(from_flat.to_json(), c.to_json());
+  // The encoding's type, given, decides the hash levels.
+  c.set(R"(model.canonical.encoding={"type": "frequency"})");
+  EXPECT_EQ(c.occupancy_hash_levels, 0);
+}
+
+TEST(TrainConfig, ErrorsNameTheKeyPath) {
+  TrainConfig c;
+  testing::expect_error([&] { c.set("model.deformer.grid.resolution=2"); },
+                        {"--set model.deformer.grid.resolution=2", "model.deformer.grid.resolution:",
+                         "from 4 to 1024", "got 2"});
+  testing::expect_error([&] { c.set("grid_resolution=2"); }, {"model.deformer.grid.resolution:", "got 2"});
+  testing::expect_error([&] { c.set("model.deformer.grid.resolutoin=40"); },
+                        {"unknown config key 'model.deformer.grid.resolutoin'"});
+  testing::expect_error([&] { c.set("model.grid_resolution=40"); }, {"unknown config key 'model.grid_resolution'"});
+  testing::expect_error([&] { c.set("optimizer.type=sgd"); }, {"optimizer.type", "\"adam\"", "\"sgd\""});
+  testing::expect_error([&] { c.set("model.canonical.encoding.type=fourier"); },
+                        {"model.canonical.encoding.type", "\"fourier\""});
+  testing::expect_error([&] { c.set("model.canonical.encoding.type=frequency+hash"); },
+                        {"needs model.canonical.encoding.hash.levels >= 1"});
+  testing::expect_error([&] { c.set("model.canonical.network.skip_layers=[1.5]"); },
+                        {"model.canonical.network.skip_layers", "whole numbers"});
+  testing::expect_error([&] { c.set("data.surface_points=0"); c.set("data.uniform_points=0"); },
+                        {"data.surface_points + data.uniform_points", "empty"});
+  testing::expect_error([&] { TrainConfig::from_json(R"({"data": {"frames_per_batch": 0}})", "cfg.json", TrainConfig{}); },
+                        {"cfg.json: data.frames_per_batch: must be >= 1, got 0"});
+  testing::expect_error(
+      [&] { TrainConfig::from_json(R"({"grid_resolution": 40, "model": {"deformer": {"grid": {"resolution": 48}}}})",
+                                   "twice.json", TrainConfig{}); },
+      {"twice.json", "model.deformer.grid.resolution is given twice"});
+  testing::expect_error([&] { c.set("learning_rate=2"); }, {"optimizer.learning_rate", "(0, 1]", "got 2"});
 }
 
 TEST(TrainConfig, ShippedConfigsLoad) {
@@ -81,7 +138,7 @@ TEST(TrainConfig, MethodDefaultsComeBeforeExplicitSettings) {
 TEST(TrainConfig, RunConfigsWrittenBeforeAKeyExistedKeepTheirBehaviour) {
   // An INS run saved before pin_space_output existed used the sine output;
   // today's default (linear) would load its checkpoint as a different function.
-  auto saved = nlohmann::json::parse(TrainConfig{}.to_json());
+  auto saved = nlohmann::json::parse(TrainConfig{}.to_flat_json());  // runs of that time were flat
   saved.erase("pin_space_output");
   const auto path = testing::temp_dir("old_run_config") / "config.json";
   std::ofstream(path) << saved.dump();
@@ -154,7 +211,6 @@ TEST(TrainConfig, DefaultsFollowTheSkeletonNotAPerson) {
 // accepted, or rejected with fskin::Error naming the key, also when the model
 // is then made from it; never another exception.
 TEST(TrainConfig, EveryKeyWithABadValueIsAnFskinError) {
-  const auto keys = nlohmann::json::parse(TrainConfig{}.to_json());
   const std::vector<std::string> values = {"",      "abc",   "-1",    "0",      "1e308", "nan",          "inf",
                                            "-inf",  "[1,2]", "{}",    "999999999999999999999", "true", "0.5",
                                            "automatic:abc", "automatic:0", "automatic:-3", "all", "\"x\"", "null"};
@@ -163,9 +219,9 @@ TEST(TrainConfig, EveryKeyWithABadValueIsAnFskinError) {
   const auto skeleton = skeleton_of(names, torch::tensor({{-1.0, -1.0, -1.0}, {1.0, 1.0, 1.0}}));
   int64_t accepted = 0, rejected = 0;
   std::vector<std::string> internal;
-  for (auto it = keys.begin(); it != keys.end(); ++it)
+  for (const auto& key : config_keys())
     for (const auto& value : values) {
-      const std::string assignment = it.key() + "=" + value;
+      const std::string assignment = key.path + "=" + value;
       try {
         TrainConfig c;
         c.set(assignment);

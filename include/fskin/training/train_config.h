@@ -1,8 +1,9 @@
 #pragma once
-// Everything that defines a training run, as one JSON document: defaults (the
-// CPU demo size), overlaid by a config file, overlaid by command-line
-// assignments, and saved into the run directory so evaluation and resume
-// rebuild exactly the same model.
+// Everything that defines a training run: defaults (the CPU demo size),
+// overlaid by a config file, overlaid by command-line assignments, and saved
+// into the run directory so evaluation and resume rebuild exactly the same
+// model. The struct is flat; its documents are nested per component, with
+// key-path validation (training/config_schema.h).
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -190,9 +191,13 @@ struct TrainConfig {
   // Config files and --set assignments are applied after, so they still win.
   void use_method(const std::string& name);
 
+  // The nested document (config_schema.h), as run directories hold it.
   std::string to_json() const;
-  // Overlays a JSON object on `base` (e.g. TrainConfig{} or full()); unknown
-  // keys are errors naming `context`.
+  // The flat document of run directories written before the nested layout.
+  std::string to_flat_json() const;
+  // Overlays a JSON object, nested or flat, on `base` (e.g. TrainConfig{} or
+  // full()); unknown keys and bad values are errors naming `context` and the
+  // key path.
   static TrainConfig from_json(const std::string& text, const std::string& context, const TrainConfig& base);
   static TrainConfig load(const std::string& path, const TrainConfig& base);
   // A run directory's saved config.json (complete, as `fskin train` writes it).
@@ -200,7 +205,8 @@ struct TrainConfig {
   // reproduces the run's behaviour, not today's default (pin_space_output:
   // "sine" before the linear output became the default).
   static TrainConfig load_run(const std::string& path);
-  // Applies "key=value" (value in JSON syntax, or a bare string).
+  // Applies "key=value": a key path (model.deformer.grid.resolution) or a flat
+  // name (grid_resolution); the value in JSON syntax, or a bare string.
   void set(const std::string& assignment);
   void validate() const;
 
