@@ -183,13 +183,7 @@ void register_avatar(CLI::App& app) {
       const Eigen::Vector3d centre(0.5 * (g.lower[0] + g.upper[0]), 0.5 * (g.lower[1] + g.upper[1]),
                                    0.5 * (g.lower[2] + g.upper[2]));
       for (int k = 0; k < render->turntable; ++k) {
-        const double angle = 2 * M_PI * k / render->turntable;
-        Eigen::Matrix4d turn = Eigen::Matrix4d::Identity();
-        turn(0, 0) = std::cos(angle), turn(0, 2) = std::sin(angle), turn(2, 0) = -std::sin(angle),
-        turn(2, 2) = std::cos(angle);
-        turn.topRightCorner<3, 1>() = centre - turn.topLeftCorner<3, 3>() * centre;
-        PinholeCamera camera = cameras[i];
-        camera.extrinsic = camera.extrinsic * turn;  // world turned by `turn`, then seen by the camera
+        const auto camera = cameras[i].orbited(2 * M_PI * k / render->turntable, centre);
         const auto rgb = trained.avatar->render_image(frame, camera, data.background()).first;
         write_png((fs::path(render->out) / fmt::format("frame_{:04d}.png", k)).string(), to_image(rgb));
       }

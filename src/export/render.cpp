@@ -32,19 +32,27 @@ float edge(const Eigen::Vector2f& a, const Eigen::Vector2f& b, const Eigen::Vect
 // Z-buffered visibility: for every sample, the nearest triangle covering its
 // centre. Triangles are not culled by orientation, so open or inconsistently
 // oriented meshes still render; shading lights both sides.
+// Samples' centres sit at (x + 0.5, y + 0.5), OpenCV's pixel centres at
+// (u, v): screen = the camera's pixel position + 0.5.
 std::vector<Fragment> rasterize(const float* vertices, const int64_t* faces, int64_t num_faces,
-                                const Camera& camera, int width, int height) {
+                                const PinholeCamera& camera) {
+  const int width = camera.width, height = camera.height;
   std::vector<Fragment> fragments(static_cast<size_t>(width) * height);
+  const Eigen::Matrix3d rotation = camera.extrinsic.topLeftCorner<3, 3>();
+  const Eigen::Vector3d translation = camera.extrinsic.topRightCorner<3, 1>();
+  const Eigen::Matrix3d& K = camera.intrinsic;
   for (int64_t f = 0; f < num_faces; ++f) {
     Eigen::Vector2f screen[3];
     float inverse_depth[3];
     bool in_front = true;
     for (int k = 0; k < 3; ++k) {
       const Eigen::Map<const Eigen::Vector3f> world(vertices + 3 * faces[3 * f + k]);
-      const Eigen::Vector3f point = camera.to_camera(world);
-      in_front = in_front && point.z() > 1e-6f;
-      screen[k] = camera.to_pixel(point, width, height);
-      inverse_depth[k] = 1.0f / point.z();
+      const Eigen::Vector3d point = rotation * world.cast<double>() + translation;
+      in_front = in_front && point.z() > 1e-6;
+      const double x = point.x() / point.z(), y = point.y() / point.z();
+      screen[k] = Eigen::Vector2f(static_cast<float>(K(0, 0) * x + K(0, 1) * y + K(0, 2) + 0.5),
+                                  static_cast<float>(K(1, 1) * y + K(1, 2) + 0.5));
+      inverse_depth[k] = static_cast<float>(1.0 / point.z());
     }
     // frame_camera keeps the framed box in front of the camera; a triangle
     // reaching behind it only occurs with a user-chosen framing box.
@@ -133,20 +141,8 @@ BoundingBox bounding_box(const Mesh& mesh) {
   return box;
 }
 
-Eigen::Vector3f Camera::to_camera(const Eigen::Vector3f& world) const {
-  const Eigen::Vector3f d = world - eye;
-  return {d.dot(right), d.dot(up), d.dot(forward)};
-}
-
-Eigen::Vector2f Camera::to_pixel(const Eigen::Vector3f& point, int width, int height) const {
-  const double tan_half_fov_x = tan_half_fov_y * aspect;
-  const double x = point.x() / point.z() / tan_half_fov_x;  // -1 .. 1 across the picture
-  const double y = point.y() / point.z() / tan_half_fov_y;
-  return {static_cast<float>(0.5 * width * (1 + x)), static_cast<float>(0.5 * height * (1 - y))};
-}
-
-Camera frame_camera(const BoundingBox& box, const ViewAngles& angles, double aspect,
-                    double vertical_fov_degrees, double margin) {
+PinholeCamera frame_camera(const BoundingBox& box, const ViewAngles& angles, int width, int height,
+                           double vertical_fov_degrees, double margin) {
   FSKIN_CHECK(!box.empty() && box.lower.allFinite() && box.upper.allFinite(),
               "cannot frame an empty or non-finite bounding box");
   FSKIN_CHECK(std::abs(angles.elevation_degrees) < 90, "view elevation must be within (-90, 90) "
@@ -156,23 +152,22 @@ Camera frame_camera(const BoundingBox& box, const ViewAngles& angles, double asp
               vertical_fov_degrees);
   FSKIN_CHECK(margin >= 0 && margin < 0.5, "frame margin must be within [0, 0.5), got {}",
               margin);
-  FSKIN_CHECK(aspect > 0, "picture aspect ratio must be positive, got {}", aspect);
+  FSKIN_CHECK(width > 0 && height > 0, "picture size must be positive, got {}x{}", width, height);
+  const double aspect = static_cast<double>(width) / height;
   const double azimuth = radians(angles.azimuth_degrees);
   const double elevation = radians(angles.elevation_degrees);
   // Unit vector from the subject to the camera; azimuth 0 = on +Z (front).
   const Eigen::Vector3f to_eye(static_cast<float>(std::sin(azimuth) * std::cos(elevation)),
                                static_cast<float>(std::sin(elevation)),
                                static_cast<float>(std::cos(azimuth) * std::cos(elevation)));
-  Camera camera;
-  camera.forward = -to_eye;
-  camera.right = camera.forward.cross(Eigen::Vector3f::UnitY()).normalized();
-  camera.up = camera.right.cross(camera.forward);
-  camera.tan_half_fov_y = std::tan(radians(vertical_fov_degrees) / 2);
-  camera.aspect = aspect;
+  const Eigen::Vector3f forward = -to_eye;
+  const Eigen::Vector3f right = forward.cross(Eigen::Vector3f::UnitY()).normalized();
+  const Eigen::Vector3f up = right.cross(forward);
+  const double tan_half_fov_y = std::tan(radians(vertical_fov_degrees) / 2);
   const Eigen::Vector3f centre = 0.5f * (box.lower + box.upper);
   const double usable = 1 - 2 * margin;
-  const double tan_x = camera.tan_half_fov_y * aspect * usable;
-  const double tan_y = camera.tan_half_fov_y * usable;
+  const double tan_x = tan_half_fov_y * aspect * usable;
+  const double tan_y = tan_half_fov_y * usable;
   // With the eye at distance D from the centre, a corner at camera-space
   // offset (x, y, z) from the centre has depth D + z and fits when
   // |x| <= tan_x (D + z) and |y| <= tan_y (D + z).
@@ -182,13 +177,27 @@ Camera frame_camera(const BoundingBox& box, const ViewAngles& angles, double asp
                                 (corner & 2) ? box.upper.y() : box.lower.y(),
                                 (corner & 4) ? box.upper.z() : box.lower.z());
     const Eigen::Vector3f d = point - centre;
-    const double x = d.dot(camera.right), y = d.dot(camera.up), z = d.dot(camera.forward);
+    const double x = d.dot(right), y = d.dot(up), z = d.dot(forward);
     distance = std::max({distance, std::abs(x) / tan_x - z, std::abs(y) / tan_y - z});
   }
   // A flat or point-like box still needs the eye in front of it.
   const double extent = std::max(1e-3, static_cast<double>((box.upper - box.lower).norm()));
   distance = std::max(distance, extent);
-  camera.eye = centre + static_cast<float>(distance) * to_eye;
+  const Eigen::Vector3d eye = (centre + static_cast<float>(distance) * to_eye).cast<double>();
+  PinholeCamera camera;
+  camera.width = width;
+  camera.height = height;
+  Eigen::Matrix3d rotation;  // rows: the camera's x (right), y (down), z (forward) in world space
+  rotation.row(0) = right.cast<double>();
+  rotation.row(1) = -up.cast<double>();
+  rotation.row(2) = forward.cast<double>();
+  camera.extrinsic.topLeftCorner<3, 3>() = rotation;
+  camera.extrinsic.topRightCorner<3, 1>() = -rotation * eye;
+  // x/z = +-tan_half_fov_x at the picture's outer edges, u = -0.5 and W - 0.5.
+  camera.intrinsic(0, 0) = 0.5 * width / (tan_half_fov_y * aspect);
+  camera.intrinsic(1, 1) = 0.5 * height / tan_half_fov_y;
+  camera.intrinsic(0, 2) = 0.5 * (width - 1);
+  camera.intrinsic(1, 2) = 0.5 * (height - 1);
   return camera;
 }
 
@@ -216,17 +225,16 @@ Image render_mesh(const Mesh& mesh, const RenderOptions& options) {
 
   const int samples = options.supersampling;
   const int width = options.width * samples, height = options.height * samples;
-  const Camera camera =
-      frame_camera(options.framing ? *options.framing : bounding_box(mesh), options.view,
-                   static_cast<double>(options.width) / options.height,
-                   options.vertical_fov_degrees, options.margin);
-  const auto fragments =
-      rasterize(vertex_data, face_data, mesh.num_faces(), camera, width, height);
+  const PinholeCamera camera =
+      frame_camera(options.framing ? *options.framing : bounding_box(mesh), options.view, options.width,
+                   options.height, options.vertical_fov_degrees, options.margin);
+  const auto fragments = rasterize(vertex_data, face_data, mesh.num_faces(), camera.supersampled(samples));
 
   // Light directions in world space, fixed relative to the camera so every
   // view is lit alike: the key light comes from above left, behind the viewer.
   const Eigen::Vector3f to_light =
-      (-0.35f * camera.right + 0.55f * camera.up - 0.75f * camera.forward).normalized();
+      (-0.35 * camera.right() - 0.55 * camera.down() - 0.75 * camera.forward()).normalized().cast<float>();
+  const Eigen::Vector3f eye = camera.centre().cast<float>();
   const Eigen::Vector3f base_color = to_unit(options.base_color);
   const Eigen::Vector3f top = to_unit(options.background_top);
   const Eigen::Vector3f bottom = to_unit(options.background_bottom);
@@ -258,7 +266,7 @@ Image render_mesh(const Mesh& mesh, const RenderOptions& options) {
           if (color_data)
             albedo += b[k] * Eigen::Map<const Eigen::Vector3f>(color_data + 3 * corner[k]);
         }
-        const Eigen::Vector3f to_viewer = (camera.eye - position).normalized();
+        const Eigen::Vector3f to_viewer = (eye - position).normalized();
         // Vertices without faces of their own have zero normals; fall back to
         // facing the viewer. Back sides are lit like front sides.
         normal = normal.squaredNorm() > 0 ? normal.normalized() : to_viewer;
@@ -315,8 +323,10 @@ Image render_grid(const std::vector<Mesh>& meshes, const std::vector<ViewAngles>
   return grid;
 }
 
-SurfaceRender render_surface(const Mesh& mesh, const Camera& camera, int width, int height,
-                             int supersampling, const SurfaceShader& shade, Rgb8 background) {
+SurfaceRender render_surface(const Mesh& mesh, const PinholeCamera& camera, int supersampling,
+                             const SurfaceShader& shade, Rgb8 background) {
+  camera.validate("render_surface: camera");
+  const int width = camera.width, height = camera.height;
   mesh.validate("render_surface: mesh");
   FSKIN_CHECK(mesh.num_faces() > 0, "render_surface: mesh has no faces");
   FSKIN_CHECK(width > 0 && height > 0 && width <= 16384 && height <= 16384,
@@ -326,9 +336,9 @@ SurfaceRender render_surface(const Mesh& mesh, const Camera& camera, int width, 
   const auto vertices = mesh.vertices.contiguous();
   const auto faces = mesh.faces.contiguous();
   const int s = supersampling;
-  const int sample_width = width * s, sample_height = height * s;
-  const auto fragments = rasterize(vertices.data_ptr<float>(), faces.data_ptr<int64_t>(), mesh.num_faces(),
-                                   camera, sample_width, sample_height);
+  const int sample_width = width * s;
+  const auto fragments =
+      rasterize(vertices.data_ptr<float>(), faces.data_ptr<int64_t>(), mesh.num_faces(), camera.supersampled(s));
   const Eigen::Vector3f back = to_unit(background);
   SurfaceRender out{Image(width, height), std::vector<uint8_t>(static_cast<size_t>(width) * height)};
   at::parallel_for(0, height, 8, [&](int64_t begin, int64_t end) {

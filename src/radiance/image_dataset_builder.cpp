@@ -160,11 +160,9 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
     box.extend(Eigen::Vector3f(hi[0].item<float>(), hi[1].item<float>(), hi[2].item<float>()));
   }
   std::vector<PinholeCamera> views;
-  const double aspect = static_cast<double>(options.width) / options.height;
   const auto ring_camera = [&](double azimuth) {
-    const Camera camera = frame_camera(box, ViewAngles{azimuth, options.elevation_degrees}, aspect,
-                                       options.vertical_fov_degrees, 0.04);
-    return PinholeCamera::from_render_camera(camera, options.width, options.height);
+    return frame_camera(box, ViewAngles{azimuth, options.elevation_degrees}, options.width, options.height,
+                        options.vertical_fov_degrees, 0.04);
   };
   for (int v = 0; v < train_views; ++v) views.push_back(ring_camera(360.0 * v / train_views));
   for (int v = 0; v < options.held_out_views; ++v)
@@ -277,8 +275,7 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
         }
         return texture.albedo(p, w.data());
       };
-      const auto render = render_surface(mesh, views[item->view_index].to_render_camera(), options.width,
-                                         options.height, options.supersampling, shade, background8);
+      const auto render = render_surface(mesh, views[item->view_index], options.supersampling, shade, background8);
       write_png(image_path.string(), render.image);
       write_png_gray(mask_path.string(), options.width, options.height, render.mask);
       ++summary.images_written;

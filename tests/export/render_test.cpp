@@ -95,12 +95,12 @@ TEST(Render, SphereSilhouetteIsTheCentredProjectedDisk) {
 
   // The sphere's outline in a pinhole camera looking at its centre is a
   // circle of angular radius asin(r / d).
-  const Camera camera =
-      frame_camera(bounding_box(sphere), options.view, 1.0, options.vertical_fov_degrees,
-                   options.margin);
-  const double distance = (camera.eye - centre).norm();
-  const double radius_pixels =
-      std::tan(std::asin(radius / distance)) / camera.tan_half_fov_y * options.height / 2;
+  const PinholeCamera camera = frame_camera(bounding_box(sphere), options.view, options.width, options.height,
+                                            options.vertical_fov_degrees, options.margin);
+  const double distance = (camera.centre() - centre.cast<double>()).norm();
+  const double tan_half_fov_y = std::tan(options.vertical_fov_degrees * M_PI / 360);
+  EXPECT_NEAR(camera.intrinsic(1, 1), 0.5 * options.height / tan_half_fov_y, 1e-9);
+  const double radius_pixels = std::tan(std::asin(radius / distance)) / tan_half_fov_y * options.height / 2;
   const Coverage c = measure(image);
   EXPECT_NEAR(c.area / (M_PI * radius_pixels * radius_pixels), 1.0, 0.01);
   EXPECT_NEAR(c.centre_x, 120.0, 0.5);
@@ -150,12 +150,11 @@ TEST(Render, NearTriangleCoversFarOneWhateverTheOrder) {
   const Image image = render_mesh(two_triangles(false), options);
   const Rgb8 centre = at(image, 32, 34);
   EXPECT_GT(centre[0], 2 * centre[2]) << "centre should be red";
-  const Camera camera = frame_camera(bounding_box(two_triangles(false)), options.view, 1.0,
-                                     options.vertical_fov_degrees, options.margin);
+  const PinholeCamera camera = frame_camera(bounding_box(two_triangles(false)), options.view, 64, 64,
+                                            options.vertical_fov_degrees, options.margin);
   // A point of the blue triangle outside the red one.
-  const Eigen::Vector2f blue_pixel =
-      camera.to_pixel(camera.to_camera(Eigen::Vector3f(-0.6f, -0.8f, -0.5f)), 64, 64);
-  const Rgb8 blue = at(image, static_cast<int>(blue_pixel.x()), static_cast<int>(blue_pixel.y()));
+  const Eigen::Vector2d blue_pixel = camera.project(Eigen::Vector3d(-0.6, -0.8, -0.5));
+  const Rgb8 blue = at(image, static_cast<int>(std::lround(blue_pixel.x())), static_cast<int>(std::lround(blue_pixel.y())));
   EXPECT_GT(blue[2], 2 * blue[0]) << "outside the red triangle the blue one shows";
   EXPECT_EQ(image.rgb, render_mesh(two_triangles(true), options).rgb);
 }

@@ -18,6 +18,7 @@
 
 #include "fskin/export/image.h"
 #include "fskin/geometry/mesh.h"
+#include "fskin/geometry/pinhole_camera.h"
 
 namespace fskin {
 
@@ -50,24 +51,12 @@ struct BoundingBox {
 
 BoundingBox bounding_box(const Mesh& mesh);
 
-// A pinhole camera. Camera space: x right, y up, z = depth along `forward`.
-struct Camera {
-  Eigen::Vector3f eye, forward, right, up;
-  double tan_half_fov_y = 0;  // vertical field of view
-  double aspect = 1;          // width / height
-
-  // Camera-space coordinates of a world point.
-  Eigen::Vector3f to_camera(const Eigen::Vector3f& world) const;
-  // Pixel coordinates (x right, y down, pixel centres at +0.5) in a
-  // width x height image; `depth` is the camera-space z.
-  Eigen::Vector2f to_pixel(const Eigen::Vector3f& camera_point, int width, int height) const;
-};
-
-// Places the camera on the ray `angles` from the centre of `box`, at the
-// smallest distance at which all eight corners project inside the picture
-// with `margin` (fraction of the picture size) free on every side.
-Camera frame_camera(const BoundingBox& box, const ViewAngles& angles, double aspect,
-                    double vertical_fov_degrees, double margin);
+// The camera on the ray `angles` from the centre of `box`, looking at it, at
+// the smallest distance at which all eight corners project inside a
+// width x height picture with `margin` (fraction of the picture size) free on
+// every side; square pixels, principal point in the picture's centre.
+PinholeCamera frame_camera(const BoundingBox& box, const ViewAngles& angles, int width, int height,
+                           double vertical_fov_degrees, double margin);
 
 struct RenderOptions {
   int width = 512;
@@ -109,11 +98,12 @@ struct SurfaceRender {
 // `face` (corners faces[face][0..2]). Called concurrently from several threads.
 using SurfaceShader = std::function<Eigen::Vector3f(int64_t face, float b0, float b1, float b2)>;
 
-// Renders `mesh` seen by `camera` into width x height pixels with s x s
-// samples per pixel (box-filtered), each covered sample coloured by `shade`
-// (no lighting: the shader's colour is the radiance), the others
-// `background`. The same rasteriser as render_mesh.
-SurfaceRender render_surface(const Mesh& mesh, const Camera& camera, int width, int height,
-                             int supersampling, const SurfaceShader& shade, Rgb8 background);
+// Renders `mesh` seen by `camera` (any pinhole: off-centre principal points
+// and skew too) into its width x height pixels with s x s samples per pixel
+// (box-filtered), each covered sample coloured by `shade` (no lighting: the
+// shader's colour is the radiance), the others `background`. The same
+// rasteriser as render_mesh.
+SurfaceRender render_surface(const Mesh& mesh, const PinholeCamera& camera, int supersampling,
+                             const SurfaceShader& shade, Rgb8 background);
 
 }  // namespace fskin

@@ -22,7 +22,7 @@
 
 #include "fskin/radiance/avatar_character.h"
 #include "fskin/data/pose_set.h"
-#include "fskin/radiance/pinhole_camera.h"
+#include "fskin/geometry/pinhole_camera.h"
 
 namespace fskin {
 

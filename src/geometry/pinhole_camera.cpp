@@ -1,4 +1,4 @@
-#include "fskin/radiance/pinhole_camera.h"
+#include "fskin/geometry/pinhole_camera.h"
 
 #include <Eigen/Dense>
 #include <torch/torch.h>
@@ -11,58 +11,45 @@
 
 namespace fskin {
 
-PinholeCamera PinholeCamera::from_render_camera(const Camera& camera, int width, int height) {
-  FSKIN_CHECK(width > 0 && height > 0, "camera: image size must be positive, got {}x{}", width, height);
-  PinholeCamera out;
-  out.width = width;
-  out.height = height;
-  Eigen::Matrix3d rotation;
-  rotation.row(0) = camera.right.cast<double>();
-  rotation.row(1) = -camera.up.cast<double>();
-  rotation.row(2) = camera.forward.cast<double>();
-  out.extrinsic.setIdentity();
-  out.extrinsic.topLeftCorner<3, 3>() = rotation;
-  out.extrinsic.topRightCorner<3, 1>() = -rotation * camera.eye.cast<double>();
-  // The renderer puts x/z = +-tan_half_fov_x at the picture's outer edges
-  // (0 and W in its coordinates, where pixel centres sit at u + 0.5).
-  const double tan_x = camera.tan_half_fov_y * camera.aspect;
-  out.intrinsic.setIdentity();
-  out.intrinsic(0, 0) = 0.5 * width / tan_x;
-  out.intrinsic(1, 1) = 0.5 * height / camera.tan_half_fov_y;
-  out.intrinsic(0, 2) = 0.5 * (width - 1);
-  out.intrinsic(1, 2) = 0.5 * (height - 1);
-  return out;
-}
-
-Camera PinholeCamera::to_render_camera() const {
-  validate("camera");
-  const double fx = intrinsic(0, 0), fy = intrinsic(1, 1);
-  FSKIN_CHECK(std::abs(fx - fy) <= 1e-6 * fx && intrinsic(0, 1) == 0 &&
-                  std::abs(intrinsic(0, 2) - 0.5 * (width - 1)) < 1e-3 &&
-                  std::abs(intrinsic(1, 2) - 0.5 * (height - 1)) < 1e-3,
-              "camera: the mesh renderer draws square pixels around the image centre; this camera has "
-              "fx {}, fy {}, skew {}, principal point ({}, {}) for a {}x{} image",
-              fx, fy, intrinsic(0, 1), intrinsic(0, 2), intrinsic(1, 2), width, height);
-  const Eigen::Matrix3d rotation = extrinsic.topLeftCorner<3, 3>();
-  Camera camera;
-  camera.right = rotation.row(0).transpose().cast<float>();
-  camera.up = (-rotation.row(1)).transpose().cast<float>();
-  camera.forward = rotation.row(2).transpose().cast<float>();
-  camera.eye = centre().cast<float>();
-  camera.tan_half_fov_y = 0.5 * height / fy;
-  camera.aspect = static_cast<double>(width) / height;
-  return camera;
-}
-
 Eigen::Vector3d PinholeCamera::centre() const {
   const Eigen::Matrix3d rotation = extrinsic.topLeftCorner<3, 3>();
   return -rotation.transpose() * extrinsic.topRightCorner<3, 1>();
 }
 
+Eigen::Vector3d PinholeCamera::right() const { return extrinsic.block<1, 3>(0, 0).transpose(); }
+Eigen::Vector3d PinholeCamera::down() const { return extrinsic.block<1, 3>(1, 0).transpose(); }
+Eigen::Vector3d PinholeCamera::forward() const { return extrinsic.block<1, 3>(2, 0).transpose(); }
+
+Eigen::Vector3d PinholeCamera::to_camera(const Eigen::Vector3d& world) const {
+  return extrinsic.topLeftCorner<3, 3>() * world + extrinsic.topRightCorner<3, 1>();
+}
+
 Eigen::Vector2d PinholeCamera::project(const Eigen::Vector3d& world) const {
-  const Eigen::Vector3d p = extrinsic.topLeftCorner<3, 3>() * world + extrinsic.topRightCorner<3, 1>();
+  const Eigen::Vector3d p = to_camera(world);
   const Eigen::Vector3d q = intrinsic * (p / p.z());
   return {q.x(), q.y()};
+}
+
+PinholeCamera PinholeCamera::supersampled(int factor) const {
+  FSKIN_CHECK(factor >= 1 && factor <= 64, "camera: supersampling factor must be within 1..64, got {}", factor);
+  PinholeCamera fine = *this;
+  fine.width = width * factor;
+  fine.height = height * factor;
+  // Pixel u's left edge is at u - 0.5: an edge position e maps to factor * e.
+  fine.intrinsic.topRows<2>() *= factor;
+  fine.intrinsic(0, 2) = factor * (intrinsic(0, 2) + 0.5) - 0.5;
+  fine.intrinsic(1, 2) = factor * (intrinsic(1, 2) + 0.5) - 0.5;
+  return fine;
+}
+
+PinholeCamera PinholeCamera::orbited(double radians, const Eigen::Vector3d& pivot) const {
+  Eigen::Matrix4d turn = Eigen::Matrix4d::Identity();
+  turn(0, 0) = std::cos(radians), turn(0, 2) = std::sin(radians);
+  turn(2, 0) = -std::sin(radians), turn(2, 2) = std::cos(radians);
+  turn.topRightCorner<3, 1>() = pivot - turn.topLeftCorner<3, 3>() * pivot;
+  PinholeCamera out = *this;
+  out.extrinsic = extrinsic * turn;  // the world turned by `turn`, then seen by this camera
+  return out;
 }
 
 void PinholeCamera::validate(const std::string& context) const {
