@@ -40,6 +40,7 @@
 #include "fskin/radiance/image_dataset_builder.h"
 #include "fskin/export/skinned_gltf.h"
 #include "fskin/inference/posed_meshing.h"
+#include "fskin/inference/run_animation.h"
 #include "fskin/inference/rigged_avatar.h"
 #include "fskin/inference/run_evaluation.h"
 #include "fskin/inference/trained_run.h"
@@ -308,6 +309,28 @@ class PyRun {
         ->predict(points.to(device, torch::kFloat32), bones.to(device, torch::kFloat32),
                   pose.to(device, torch::kFloat32), fskin::Aggregation::Max)
         .logits.cpu();
+  }
+
+  // `fskin animate RUN --poses`: every pose of poses [N, J, 3] (root translations [N, 3]) into `out`
+  // (inference/run_animation.h); returns meshing.json's contents.
+  std::string animate(const torch::Tensor& poses, const std::optional<torch::Tensor>& trans, const std::string& out,
+                      const std::string& mode, int64_t resolution, int64_t initial, int64_t surface_steps,
+                      bool largest_component, double fps, const std::string& body_model) {
+    fskin::RunAnimationOptions options;
+    FSKIN_CHECK(mode == "default" || mode == "repose" || mode == "per-pose",
+                "Run.animate: mode must be \"default\", \"repose\" or \"per-pose\", got \"{}\"", mode);
+    options.mode = mode == "repose"     ? fskin::RunAnimationMode::Repose
+                   : mode == "per-pose" ? fskin::RunAnimationMode::PerPose
+                                        : fskin::RunAnimationMode::Default;
+    options.meshing = meshing_options(resolution, initial, largest_component);
+    FSKIN_CHECK(surface_steps >= 0 && surface_steps <= 64, "Run.animate: surface_steps {} must be in 0..64",
+                surface_steps);
+    options.meshing.surface_steps = surface_steps;
+    options.fps = fps;
+    options.progress = false;
+    const auto bones = bone_transforms(poses, trans, body_model);
+    return fskin::animate_run(run_, poses.to(torch::kCPU, torch::kFloat32), bones, "Run.animate", out, options)
+        .summary.dump();
   }
 
   // The canonical mesh with the learned skinning as a rigged glTF (`fskin export RUN`).
@@ -747,6 +770,26 @@ PYBIND11_MODULE(_fskin, m) {
       .def("repose", &PyRun::repose, py::arg("vertices"), py::arg("faces"), py::arg("bones"), py::arg("batch") = 8,
            py::call_guard<py::gil_scoped_release>(),
            "Canonical mesh vertices [V, 3] into every pose of bones [N, J, 4, 4] -> [N, V, 3], keeping the faces")
+      .def(
+          "animate",
+          [](PyRun& run, const torch::Tensor& poses, const std::string& out, const std::optional<torch::Tensor>& trans,
+             const std::string& mode, int64_t resolution, int64_t initial, int64_t surface_steps,
+             bool largest_component, double fps, const std::string& body_model) {
+            std::string summary;
+            {
+              py::gil_scoped_release release;
+              summary = run.animate(poses, trans, out, mode, resolution, initial, surface_steps, largest_component,
+                                    fps, body_model);
+            }
+            return py::module_::import("json").attr("loads")(summary);
+          },
+          py::arg("poses"), py::arg("out"), py::arg("trans") = py::none(), py::arg("mode") = "default",
+          py::arg("resolution") = 128, py::arg("initial") = 32,
+          py::arg("surface_steps") = fskin::PosedMeshingOptions{}.surface_steps, py::arg("largest_component") = false,
+          py::arg("fps") = 30.0, py::arg("body_model") = "",
+          "Every pose of poses [N, J, 3] (trans [N, 3]) into directory `out`, as `fskin animate RUN --poses`: "
+          "mode 'repose' (canonical.ply, frame_*.ply, animation.glb), 'per-pose' (one MISE mesh per pose) or "
+          "'default' (repose for ins runs, per-pose for the others); returns meshing.json as a dict")
       .def("occupancy", &PyRun::occupancy, py::arg("points"), py::arg("bones"), py::arg("pose"),
            py::call_guard<py::gil_scoped_release>(),
            "Occupancy logits [B, N] of posed points [B, N, 3] (bones [B, J, 4, 4], pose [B, J, 3])")

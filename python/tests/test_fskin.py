@@ -256,6 +256,15 @@ def test_training_evaluation_and_inference_from_python_match_the_cli(tmp_path):
     assert surface.median() < 0.25 * away.median(), (surface.median(), away.median())
     posed_vertices, _ = trained.mesh(pose=pose_array[0], resolution=32, initial=8)
     assert posed_vertices.shape[0] > 0
+    # `fskin animate RUN --poses` from Python: the same workflow, the same files.
+    summary = trained.animate(pose_array, str(tmp_path / "animated"), mode="repose", resolution=32, initial=8)
+    assert summary["mode"] == "repose" and summary["step"] == 100 and summary["canonical_vertices"] > 0
+    assert open(tmp_path / "animated" / "animation.glb", "rb").read(4) == b"glTF"
+    assert (tmp_path / "animated" / "frame_0001.ply").exists() and (tmp_path / "animated" / "meshing.json").exists()
+    summary = trained.animate(pose_array, str(tmp_path / "per_pose"), resolution=32, initial=8)
+    assert summary["mode"] == "per-pose" and len(summary["frames"]) == 2  # the default for fast-snarf
+    with pytest.raises(fskin.Error, match="mode must be"):
+        trained.animate(pose_array, str(tmp_path / "bad"), mode="sideways")
     trained.export_gltf(str(tmp_path / "avatar.glb"), bones=bones, resolution=32, initial=8)
     assert open(tmp_path / "avatar.glb", "rb").read(4) == b"glTF"
     with pytest.raises(fskin.Error, match=".glb or .gltf"):
