@@ -21,6 +21,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// meshing.json's first keys, whatever the mode.
+nlohmann::json summary_head(const TrainedRun& run, const std::string& label, const char* mode) {
+  return {{"run", run.dir}, {"method", run.config.method}, {"step", run.step}, {"poses", label}, {"mode", mode}};
+}
+
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -51,15 +56,11 @@ RunAnimationResult repose(TrainedRun& run, const torch::Tensor& bones, const std
   const double per_pose = repose_seconds / static_cast<double>(frames.size(0));
   RunAnimationResult result;
   result.mode = RunAnimationMode::Repose;
-  result.summary = {{"run", run.dir},
-                    {"method", run.config.method},
-                    {"step", run.step},
-                    {"poses", label},
-                    {"mode", "repose"},
-                    {"canonical_meshing_seconds", canonical.seconds},
-                    {"canonical_vertices", canonical.mesh.num_vertices()},
-                    {"repose_seconds", repose_seconds},
-                    {"seconds_per_pose", per_pose}};
+  result.summary = summary_head(run, label, "repose");
+  result.summary.update({{"canonical_meshing_seconds", canonical.seconds},
+                         {"canonical_vertices", canonical.mesh.num_vertices()},
+                         {"repose_seconds", repose_seconds},
+                         {"seconds_per_pose", per_pose}});
   result.description = fmt::format(
       "wrote {} re-posed meshes of {} vertices and animation.glb to {} ({}, step {})\n"
       "canonical mesh {:.2f} s once, then {:.4f} s per pose ({:.1f} poses/s)",
@@ -97,15 +98,11 @@ RunAnimationResult mesh_every_pose(TrainedRun& run, const torch::Tensor& poses, 
   const auto& mise = options.meshing.mise;
   RunAnimationResult result;
   result.mode = RunAnimationMode::PerPose;
-  result.summary = {{"run", run.dir},
-                    {"method", run.config.method},
-                    {"step", run.step},
-                    {"poses", label},
-                    {"mode", "per-pose"},
-                    {"resolution", mise.final_resolution()},
-                    {"initial_resolution", mise.initial_resolution},
-                    {"seconds_per_pose", total / n},
-                    {"frames", frames}};
+  result.summary = summary_head(run, label, "per-pose");
+  result.summary.update({{"resolution", mise.final_resolution()},
+                         {"initial_resolution", mise.initial_resolution},
+                         {"seconds_per_pose", total / n},
+                         {"frames", frames}});
   result.description = fmt::format(
       "wrote {} meshes to {} ({}, step {}, MISE {} -> {})\n"
       "{:.2f} s per pose (min {:.2f}, max {:.2f}); {:.0f} of {:.0f} samples evaluated per pose ({:.1f} %)",
