@@ -27,7 +27,7 @@ uint64_t step_seed(uint64_t seed, int64_t step) {
   return z ^ (z >> 31);
 }
 
-double LearningRateSchedule::scale(int64_t step) const {
+double LearningRateSchedule::scale(int64_t step, int64_t steps) const {
   if (step < warmup_steps) {
     const double t = static_cast<double>(step) / static_cast<double>(warmup_steps);
     return warmup_factor + (1.0 - warmup_factor) * t;
@@ -157,10 +157,40 @@ class LogAccumulator {
   int64_t count_ = 0;
 };
 
+// What the ranks agree on after a step's one all-reduce.
+struct StepAgreement {
+  bool has_gradient = false;  // some rank had a gradient (e.g. no step before the bootstrap has none)
+  bool stop = false;          // some rank was asked to stop
+};
+
+// One all-reduce for the step: every gradient (averaged; zeros where a rank
+// has none, with a flag per parameter saying whether any rank had one), the
+// logged values (averaged in place), and the ranks' stop requests.
+StepAgreement exchange_step(DataParallel& parallel, const std::vector<torch::Tensor>& parameters, bool has_gradient,
+                            torch::Tensor& logged_values, bool stop_requested) {
+  std::vector<torch::Tensor> exchanged;
+  auto flags = torch::zeros({static_cast<int64_t>(parameters.size()) + 2}, torch::kFloat64);
+  auto* flag = flags.data_ptr<double>();
+  for (size_t p = 0; p < parameters.size(); ++p) {
+    auto& grad = parameters[p].mutable_grad();
+    flag[p] = grad.defined() ? 1 : 0;
+    if (!grad.defined()) grad = torch::zeros_like(parameters[p]);
+    exchanged.push_back(grad);
+  }
+  flag[parameters.size()] = has_gradient ? 1 : 0;
+  flag[parameters.size() + 1] = stop_requested ? 1 : 0;
+  exchanged.push_back(flags);
+  exchanged.push_back(logged_values);
+  parallel.average(exchanged);
+  for (size_t p = 0; p < parameters.size(); ++p) {
+    if (flag[p] == 0) parameters[p].mutable_grad() = torch::Tensor();
+  }
+  return {flag[parameters.size()] > 0, flag[parameters.size() + 1] > 0};
+}
+
 }  // namespace
 
 Trainer::Trainer(RunDirectory run, TrainerSettings settings) : run_(std::move(run)), settings_(std::move(settings)) {
-  settings_.schedule.steps = settings_.steps;
   FSKIN_CHECK(settings_.steps >= 0, "train: steps must be >= 0, got {}", settings_.steps);
   FSKIN_CHECK(settings_.log_every >= 1 && settings_.checkpoint_every >= 1 && settings_.keep_checkpoints >= 1 &&
                   settings_.validate_every >= 0,
@@ -256,36 +286,18 @@ TrainerSummary Trainer::run(Trainable& trainable) const {
     for (const auto& metric : losses.metrics) logged.push_back(metric.second.detach().to(torch::kFloat64).reshape({1}));
     torch::Tensor logged_values = logged.empty() ? torch::zeros({0}, torch::kFloat64) : torch::cat(logged);
     if (parallel) {
-      // One all-reduce: every gradient (zeros where a rank has none, with a
-      // flag saying whether any rank had one), the logged values, and
-      // whether any rank was asked to stop.
-      std::vector<torch::Tensor> exchanged;
-      auto flags = torch::zeros({static_cast<int64_t>(parameters.size()) + 2}, torch::kFloat64);
-      auto* flag = flags.data_ptr<double>();
-      for (size_t p = 0; p < parameters.size(); ++p) {
-        auto& grad = parameters[p].mutable_grad();
-        flag[p] = grad.defined() ? 1 : 0;
-        if (!grad.defined()) grad = torch::zeros_like(parameters[p]);
-        exchanged.push_back(grad);
-      }
-      flag[parameters.size()] = has_gradient ? 1 : 0;
-      flag[parameters.size() + 1] = s.stop && s.stop->requested() ? 1 : 0;
-      exchanged.push_back(flags);
-      exchanged.push_back(logged_values);
       try {
-        parallel->average(exchanged);
+        const auto agreed = exchange_step(*parallel, parameters, has_gradient, logged_values,
+                                          s.stop && s.stop->requested());
+        has_gradient = agreed.has_gradient;
+        summary.stopped = summary.stopped || agreed.stop;
       } catch (const Error& e) {
         fail("{}: step {}: {}; the last checkpoint{} is kept: start every rank again with --resume", run_path,
              step + 1, e.what(),
              saved_step >= 0 ? fmt::format(" (step {})", saved_step) : std::string(" (none yet)"));
       }
-      for (size_t p = 0; p < parameters.size(); ++p) {
-        if (flag[p] == 0) parameters[p].mutable_grad() = torch::Tensor();
-      }
-      has_gradient = flag[parameters.size()] > 0;
-      if (flag[parameters.size() + 1] > 0) summary.stopped = true;
     }
-    const double rate_scale = s.schedule.scale(step);
+    const double rate_scale = s.schedule.scale(step, s.steps);
     if (has_gradient) {
       if (s.grad_clip > 0) torch::nn::utils::clip_grad_norm_(parameters, s.grad_clip);
       for (size_t g = 0; g < adam.param_groups().size(); ++g) {

@@ -15,7 +15,6 @@ namespace fskin {
 
 LearningRateSchedule learning_rate_schedule(const TrainConfig& config) {
   LearningRateSchedule schedule;
-  schedule.steps = config.steps;
   schedule.warmup_steps = config.warmup_steps;
   schedule.warmup_factor = config.warmup_factor;
   schedule.decay_fraction = config.decay_fraction;
@@ -24,7 +23,7 @@ LearningRateSchedule learning_rate_schedule(const TrainConfig& config) {
 }
 
 double learning_rate_scale(const TrainConfig& config, int64_t step) {
-  return learning_rate_schedule(config).scale(step);
+  return learning_rate_schedule(config).scale(step, config.steps);
 }
 
 TrainResult train(const TrainConfig& config, const BatchSource& source, const TrainOptions& options) {

@@ -32,19 +32,18 @@ uint64_t step_seed(uint64_t seed, int64_t step);
 
 // The learning-rate multiplier of each step: a linear warm-up from
 // warmup_factor to 1 over warmup_steps, 1, then a cosine decay down to
-// decay_factor over the last decay_fraction of `steps`.
+// decay_factor over the last decay_fraction of a run of `total_steps`.
 struct LearningRateSchedule {
-  int64_t steps = 0;
   int64_t warmup_steps = 0;
   double warmup_factor = 1;
   double decay_fraction = 0, decay_factor = 1;
-  double scale(int64_t step) const;
+  double scale(int64_t step, int64_t total_steps) const;
 };
 
 struct TrainerSettings {
   int64_t steps = 0;
   uint64_t seed = 0;
-  LearningRateSchedule schedule;  // its `steps` is set from `steps`
+  LearningRateSchedule schedule;  // over `steps`
   double learning_rate = 0;  // the nominal rate, logged as "lr" x the schedule's multiplier
   double adam_eps = 1e-8;
   double grad_clip = 0;  // max gradient norm; 0: none
