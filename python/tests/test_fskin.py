@@ -1,4 +1,5 @@
 """The Python module against the library and the CLI it wraps."""
+import json
 import math
 import os
 import subprocess
@@ -214,7 +215,6 @@ def test_training_evaluation_and_inference_from_python_match_the_cli(tmp_path):
     # The same run through the CLI gives the same losses (same seed, same defaults).
     run("--threads", str(torch.get_num_threads()), "train", "--data", str(data), "--out", str(tmp_path / "cli_run"),
         "--steps", "100", "--quiet", *[a for s in tiny for a in ("--set", s)])
-    import json
     lines = [json.loads(l) for l in open(tmp_path / "cli_run" / "log.jsonl")]
     py_lines = [json.loads(l) for l in open(tmp_path / "run" / "log.jsonl")]
     assert len(lines) == len(py_lines) == 100
@@ -344,3 +344,48 @@ def test_pin_fused_kernel_matches_the_module():
         assert (pin.fused(x, z, inverse) - expected).abs().max() < 1e-4
     with pytest.raises(fskin.Error, match="float32"):
         pin.fused(x.double(), z.double())
+
+
+def _free_port():
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_train_runs_as_ranks_launched_like_torchrun(tmp_path):
+    # fskin.train in processes started the way torchrun starts ranks (RANK, WORLD_SIZE, LOCAL_RANK,
+    # MASTER_ADDR, MASTER_PORT): two ranks take the steps one process takes on the same global batch,
+    # and rank 0 alone writes the run.
+    run = lambda *args: subprocess.run([CLI, *args], check=True, capture_output=True)
+    model, poses, data = tmp_path / "model.npz", tmp_path / "poses.npz", tmp_path / "data"
+    run("character", "--out", str(model), "--resolution", "40")
+    run("poses", "train", "--model", str(model), "--out", str(poses), "--sequences", "2", "--frames", "4")
+    run("data", "build", "--model", str(model), "--poses", str(poses), "--out", str(data), "--points", "3000",
+        "--quiet")
+    script = ("import json, sys, torch, fskin\n"
+              "torch.set_num_threads(1)\n"
+              "r = fskin.train(sys.argv[1], sys.argv[2], steps=10, settings=sys.argv[3:], progress=False)\n"
+              "print(json.dumps({'last_loss': r['last_loss']}))\n")
+    settings = ["frames_per_batch=4", "surface_points=300", "uniform_points=100", "occupancy_hidden_dim=32",
+                "occupancy_hidden_layers=3", "skinning_hidden_dim=16", "skinning_hidden_layers=2",
+                "grid_resolution=16"]
+    env = {k: v for k, v in os.environ.items() if k not in ("RANK", "WORLD_SIZE", "LOCAL_RANK")}
+    if fskin.openblas_core() is not None:
+        env["OPENBLAS_CORETYPE"] = fskin.openblas_core()
+    command = lambda out: ["/usr/bin/python3", "-c", script, str(data), str(out), *settings]
+    one = subprocess.run(command(tmp_path / "one"), check=True, capture_output=True, env=env, text=True)
+    port = str(_free_port())
+    ranks = [subprocess.Popen(command(tmp_path / "two"), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              env=dict(env, RANK=str(r), WORLD_SIZE="2", LOCAL_RANK=str(r), MASTER_ADDR="127.0.0.1",
+                                       MASTER_PORT=port, FSKIN_RANK_TIMEOUT_S="120"))
+             for r in range(2)]
+    outputs = [p.communicate(timeout=300) for p in ranks]
+    assert all(p.returncode == 0 for p in ranks), outputs
+    single = json.loads(one.stdout.strip().splitlines()[-1])["last_loss"]
+    for out, _ in outputs:
+        assert abs(json.loads(out.strip().splitlines()[-1])["last_loss"] - single) < 1e-5 * max(1.0, abs(single))
+    lines = [json.loads(line) for line in open(tmp_path / "two" / "log.jsonl")]
+    assert len(lines) == 10 and all(line["ranks"] == 2 for line in lines)
+    assert (tmp_path / "two" / "config.json").exists() and any(
+        name.startswith("checkpoint") for name in os.listdir(tmp_path / "two"))
