@@ -4,6 +4,7 @@
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
+#include "fskin/networks/frequency_encoding.h"
 
 namespace fskin {
 
@@ -46,17 +47,6 @@ void OccupancyNetworkOptions::validate() const {
     h.levels = hash_levels;
     h.validate();
   }
-}
-
-torch::Tensor positional_encoding(const torch::Tensor& x, int64_t frequencies) {
-  if (frequencies == 0) return x;
-  std::vector<torch::Tensor> parts{x};
-  for (int64_t k = 0; k < frequencies; ++k) {
-    const auto scaled = x * (std::ldexp(1.0, static_cast<int>(k)) * M_PI);
-    parts.push_back(scaled.sin());
-    parts.push_back(scaled.cos());
-  }
-  return torch::cat(parts, -1);
 }
 
 OccupancyNetworkImpl::OccupancyNetworkImpl(const OccupancyNetworkOptions& options) : options_(options) {

@@ -205,17 +205,11 @@ ModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& s
   occ.pose_layer = config.pose_layer;
   occ.encoding_frequencies = config.encoding_frequencies;
   occ.hash_levels = config.occupancy_hash_levels;
-  occ.hash.levels = std::max<int64_t>(config.occupancy_hash_levels, 1);
-  occ.hash.features_per_level = 2;
-  occ.hash.log2_table_size = config.occupancy_hash_log2_table_size;
-  occ.hash.base_resolution = config.occupancy_hash_base_resolution;
-  // instant-NGP's growth factor: from the base to the finest resolution over the levels.
-  occ.hash.per_level_scale =
-      config.occupancy_hash_levels > 1
-          ? std::exp(std::log(static_cast<double>(config.occupancy_hash_finest_resolution) /
-                              static_cast<double>(config.occupancy_hash_base_resolution)) /
-                     static_cast<double>(config.occupancy_hash_levels - 1))
-          : 1.0;
+  // Levels are at least 1 here so that the options validate; hash_levels 0 leaves the hash grid out.
+  occ.hash = HashEncodingOptions::spanning(std::max<int64_t>(config.occupancy_hash_levels, 1),
+                                           config.occupancy_hash_base_resolution,
+                                           config.occupancy_hash_finest_resolution,
+                                           config.occupancy_hash_log2_table_size);
   occ.init_radius = config.init_radius;
   occ.input = InputNormalization::around(skeleton.extent);
   o.skinning.num_bones = num_bones;

@@ -1,4 +1,5 @@
 #include "fskin/canonical/occupancy_network.h"
+#include "fskin/networks/frequency_encoding.h"
 
 #include <gtest/gtest.h>
 

@@ -49,9 +49,6 @@ struct OccupancyNetworkOptions {
   void validate() const;
 };
 
-// x [..., 3] -> [x, sin(2^k pi x), cos(2^k pi x) for k < frequencies], [..., 3 + 6 F].
-torch::Tensor positional_encoding(const torch::Tensor& x, int64_t frequencies);
-
 class OccupancyNetworkImpl : public torch::nn::Module {
  public:
   explicit OccupancyNetworkImpl(const OccupancyNetworkOptions& options);

@@ -30,6 +30,10 @@ struct HashEncodingOptions {
   bool hashed(int64_t level) const;         // (N_l + 1)^3 > 2^T
   // Throws fskin::Error naming the bad field (levels 1..32, F 1..8, T 4..24, N_min >= 1, b >= 1).
   void validate() const;
+  // `levels` levels from base_resolution to finest_resolution (instant-NGP's
+  // b = exp(ln(N_max / N_min) / (L - 1)); one level: b = 1).
+  static HashEncodingOptions spanning(int64_t levels, int64_t base_resolution, int64_t finest_resolution,
+                                      int64_t log2_table_size, int64_t features_per_level = 2);
 };
 
 constexpr int64_t kMaxHashLevels = 32;

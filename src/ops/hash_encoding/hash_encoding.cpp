@@ -25,6 +25,23 @@ bool HashEncodingOptions::hashed(int64_t level) const {
   return side * side * side > static_cast<double>(table_size());
 }
 
+HashEncodingOptions HashEncodingOptions::spanning(int64_t levels, int64_t base_resolution, int64_t finest_resolution,
+                                                  int64_t log2_table_size, int64_t features_per_level) {
+  FSKIN_CHECK(levels >= 1 && base_resolution >= 1 && finest_resolution >= base_resolution,
+              "hash encoding: {} levels from resolution {} to {}: need levels >= 1 and 1 <= base <= finest", levels,
+              base_resolution, finest_resolution);
+  HashEncodingOptions o;
+  o.levels = levels;
+  o.features_per_level = features_per_level;
+  o.log2_table_size = log2_table_size;
+  o.base_resolution = base_resolution;
+  o.per_level_scale = levels > 1 ? std::exp(std::log(static_cast<double>(finest_resolution) /
+                                                     static_cast<double>(base_resolution)) /
+                                            static_cast<double>(levels - 1))
+                                 : 1.0;
+  return o;
+}
+
 void HashEncodingOptions::validate() const {
   FSKIN_CHECK(levels >= 1 && levels <= kMaxHashLevels, "hash encoding: levels {} must be in 1..{}", levels,
               kMaxHashLevels);
