@@ -126,6 +126,8 @@ Skeleton BodyModel::skeleton() const {
 
 Mesh BodyModel::template_mesh() const { return Mesh{data_.v_template, data_.faces, {}}; }
 
+RiggedMesh BodyModel::rig() const { return RiggedMesh{template_mesh(), data_.weights, skeleton()}; }
+
 torch::Tensor pose_features(const torch::Tensor& rotations) {
   expect_shape(rotations, {-1, -1, 3, 3}, "pose_features: rotations");
   const auto eye = torch::eye(3, rotations.options());

@@ -78,10 +78,7 @@ void register_export(CLI::App& app) {
     };
     if (!opt->model.empty()) {
       const auto model = BodyModel::load(opt->model);
-      SkinnedCharacter character;
-      character.mesh = model.template_mesh();
-      character.weights = model.data().weights;
-      character.skeleton = model.skeleton();
+      SkinnedCharacter character{model.rig()};
       character.fps = opt->fps;
       if (!opt->clip.empty()) {
         character.animation = PoseSet::load(opt->clip);

@@ -14,10 +14,7 @@
 namespace fskin {
 
 void SkinnedCharacter::validate(const std::string& context) const {
-  mesh.validate(context);
-  skeleton.validate(context);
-  expect_shape(weights, {mesh.num_vertices(), skeleton.num_joints()}, context + ": weights");
-  expect_finite(weights, context + ": weights");
+  RiggedMesh::validate(context);
   FSKIN_CHECK(skeleton.num_joints() <= 65535, "{}: {} joints do not fit glTF's 16-bit joint indices", context,
               skeleton.num_joints());
   if (animation.size() > 0) animation.validate(context + ": animation", skeleton.num_joints());

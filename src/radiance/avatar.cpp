@@ -27,9 +27,9 @@ void AvatarOptions::validate() const {
               occupancy_opacity);
 }
 
-AvatarImpl::AvatarImpl(const AvatarCharacter& character, AvatarOptions options) : options_(std::move(options)) {
+AvatarImpl::AvatarImpl(const RiggedMesh& character, AvatarOptions options) : options_(std::move(options)) {
   options_.validate();
-  const auto vertices = character.vertices.to(torch::kFloat32);
+  const auto vertices = character.mesh.vertices.to(torch::kFloat32);
   const auto lo = std::get<0>(vertices.min(0)), hi = std::get<0>(vertices.max(0));
   const double grow = 0.05 * (hi - lo).max().item<double>();
   for (int c = 0; c < 3; ++c) {

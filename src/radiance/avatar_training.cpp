@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fskin/core/error.h"
+#include "fskin/radiance/avatar_character.h"
 #include "fskin/engine/checkpoint.h"
 #include "fskin/engine/run_directory.h"
 #include "fskin/engine/run_lock.h"
@@ -307,7 +308,7 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
   if (writer) {
     create_output_directory(run.path());
     write_file_atomically(config_file, options_json(options).dump(2) + "\n");
-    data.character().save(run.character_file());
+    save_canonical_character(data.character(), run.character_file());
   }
 
   torch::manual_seed(options.seed);
@@ -348,7 +349,7 @@ TrainedAvatar TrainedAvatar::load(const std::string& run_dir) {
               run_dir);
   TrainedAvatar out;
   out.options = read_run_options(config_file, run_dir);
-  const auto character = AvatarCharacter::load(run.character_file());
+  const auto character = load_canonical_character(run.character_file());
   out.avatar = Avatar(character, out.options.avatar);
   out.step = load_model_checkpoint(run, CheckpointChoice{}, kAvatarArchiveKey,
                                    [&out](torch::serialize::InputArchive& archive) { out.avatar->load(archive); });

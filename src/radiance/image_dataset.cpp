@@ -18,6 +18,7 @@
 #include "fskin/data/dataset_posing.h"
 #include "fskin/export/image.h"
 #include "fskin/io/npz.h"
+#include "fskin/radiance/avatar_character.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin {
@@ -38,10 +39,10 @@ nlohmann::json read_json(const std::string& path) {
 // Each camera must have the subject in front of it and near its image: the
 // subject's centre (the canonical vertices' mean carried by the bones, each
 // by its share of the weights) projected with the image's camera.
-void check_cameras_see_the_subject(const ImageSplit& split, const AvatarCharacter& character,
+void check_cameras_see_the_subject(const ImageSplit& split, const RiggedMesh& character,
                                    const std::string& camera_path) {
   if (split.size() == 0) return;
-  const auto centre = character.vertices.to(torch::kFloat64).mean(0);          // [3]
+  const auto centre = character.mesh.vertices.to(torch::kFloat64).mean(0);          // [3]
   const auto share = character.weights.to(torch::kFloat64).mean(0);            // [J]
   const auto bones = split.bone_transforms.to(torch::kFloat64);               // [N, J, 4, 4]
   const auto moved = torch::matmul(bones.narrow(2, 0, 3).narrow(3, 0, 3), centre) +
@@ -158,7 +159,7 @@ ImageDataset::ImageDataset(std::string dir) : dir_(std::move(dir)) {
   } catch (const nlohmann::json::exception& e) {
     fail("{}: {}", manifest_path, e.what());
   }
-  character_ = AvatarCharacter::load((fs::path(dir_) / "canonical.npz").string());
+  character_ = load_canonical_character((fs::path(dir_) / "canonical.npz").string());
 }
 
 ImageSplit ImageDataset::load_split(const std::string& split) const {
@@ -219,8 +220,8 @@ torch::Tensor ImageDataset::bone_transforms(const PoseSet& poses, const std::str
   auto model = BodyModel::load(path);
   const auto pose = canonical_pose(model, canonical_pose_option_);
   const auto canonical = model.pose(pose.unsqueeze(0));
-  FSKIN_CHECK(canonical.vertices[0].sizes() == character_.vertices.sizes() &&
-                  torch::allclose(canonical.vertices[0], character_.vertices, 1e-4, 1e-5),
+  FSKIN_CHECK(canonical.vertices[0].sizes() == character_.mesh.vertices.sizes() &&
+                  torch::allclose(canonical.vertices[0], character_.mesh.vertices, 1e-4, 1e-5),
               "{}: {} is not the body model this dataset was built from (its canonical vertices differ)", dir_, path);
   return DatasetPosing::from_model(std::move(model), pose).bone_transforms(poses, context);
 }

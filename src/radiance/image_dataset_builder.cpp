@@ -20,6 +20,7 @@
 #include "fskin/export/image.h"
 #include "fskin/export/render.h"
 #include "fskin/io/npz.h"
+#include "fskin/radiance/avatar_character.h"
 #include "fskin/radiance/image_dataset.h"
 #include "fskin/radiance/surface_texture.h"
 #include "fskin/skeleton/forward_kinematics.h"
@@ -101,15 +102,13 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
 
   const auto canonical_aa = canonical_pose(model, options.canonical_pose);
   const auto canonical = model.pose(canonical_aa.unsqueeze(0));
-  AvatarCharacter character;
-  character.vertices = canonical.vertices[0].contiguous();
-  character.faces = model.data().faces;
+  RiggedMesh character;
+  character.mesh = Mesh{canonical.vertices[0].contiguous(), model.data().faces, {}};
   character.weights = model.data().weights;
-  character.joints = canonical.joints[0].contiguous();
-  character.joint_names = names;
-  character.parents = model.data().parents;
-  const SurfaceTexture texture(character.vertices, character.weights, names);
-  const auto centre = ((std::get<0>(character.vertices.min(0)) + std::get<0>(character.vertices.max(0))) / 2);
+  character.skeleton = Skeleton{names, model.data().parents, canonical.joints[0].contiguous()};
+  const auto& bind_vertices = character.mesh.vertices;
+  const SurfaceTexture texture(bind_vertices, character.weights, names);
+  const auto centre = ((std::get<0>(bind_vertices.min(0)) + std::get<0>(bind_vertices.max(0))) / 2);
 
   // Every image: posed bones and vertices.
   std::vector<ImagePlan> plan;
@@ -204,12 +203,12 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
   };
   const fs::path dir(options.out_dir);
   const BuildManifest build_manifest(options.out_dir, manifest);
-  character.save((dir / "canonical.npz").string());
+  save_canonical_character(character, (dir / "canonical.npz").string());
 
   // What the shader interpolates per sample: canonical positions and weights.
-  const auto canonical_vertices_f = character.vertices.to(torch::kFloat32).contiguous();
+  const auto canonical_vertices_f = bind_vertices.to(torch::kFloat32).contiguous();
   const auto weights = character.weights.to(torch::kFloat32).contiguous();
-  const auto faces_i = character.faces.to(torch::kInt64).contiguous();
+  const auto faces_i = character.mesh.faces.to(torch::kInt64).contiguous();
   const float* canonical_vertices = canonical_vertices_f.data_ptr<float>();
   const float* weight_data = weights.data_ptr<float>();
   const int64_t* faces = faces_i.data_ptr<int64_t>();
@@ -262,7 +261,7 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
         progress.advance(1, "skipped " + image_file_name(item->index));
         continue;
       }
-      const Mesh mesh{item->vertices, character.faces, {}};
+      const Mesh mesh{item->vertices, character.mesh.faces, {}};
       const auto shade = [&](int64_t face, float b0, float b1, float b2) {
         thread_local std::vector<float> w;
         w.assign(J, 0.0f);

@@ -23,10 +23,7 @@ inline BodyModel small_model(bool quadruped) {
 // The model's template, weights and skeleton, with `frames` training poses
 // and random root translations as its animation.
 inline SkinnedCharacter skinned(const BodyModel& model, int64_t frames) {
-  SkinnedCharacter c;
-  c.mesh = model.template_mesh();
-  c.weights = model.data().weights;
-  c.skeleton = model.skeleton();
+  SkinnedCharacter c{model.rig()};
   if (frames > 0) {
     c.animation = make_training_poses(model.data().joint_names, {1, frames, 5});
     c.animation.trans = torch::randn({frames, 3}) * 0.2;

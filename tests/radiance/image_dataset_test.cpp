@@ -49,7 +49,7 @@ TEST(ImageDataset, MasksCoverTheProjectedPosedSurface) {
   const auto& character = data.character();
   for (int64_t i = 0; i < split.size(); ++i) {
     // The posed vertices by LBS with the stored bones: each projects onto a covered pixel.
-    const auto posed = linear_blend_skinning(character.vertices.unsqueeze(0), character.weights,
+    const auto posed = linear_blend_skinning(character.mesh.vertices.unsqueeze(0), character.weights,
                                              split.bone_transforms[i].unsqueeze(0))[0];
     int64_t inside = 0, total = 0;
     for (int64_t v = 0; v < posed.size(0); v += 7) {
@@ -200,22 +200,23 @@ TEST(SurfaceTexture, GivesEveryRigDetailAndTheSmplCharacterAFace) {
   const auto& tiny = testing::tiny_image_dataset();
   const ImageDataset data(tiny.dir);
   const auto& c = data.character();
-  const SurfaceTexture texture(c.vertices, c.weights, c.joint_names);
-  const auto colours = texture.vertex_colors(c.vertices, c.weights).to(torch::kFloat32);
+  const auto& vertices = c.mesh.vertices;
+  const SurfaceTexture texture(vertices, c.weights, c.skeleton.joint_names);
+  const auto colours = texture.vertex_colors(vertices, c.weights).to(torch::kFloat32);
   // Many distinct colours (parts, patterns, seams, face), none outside [0, 255].
   EXPECT_GT(std::get<0>(torch::_unique(colours.select(1, 0) * 65536 + colours.select(1, 1) * 256 + colours.select(1, 2))).numel(), 20);
   // The same texture from the same input.
-  EXPECT_TRUE(torch::equal(texture.vertex_colors(c.vertices, c.weights), texture.vertex_colors(c.vertices, c.weights)));
+  EXPECT_TRUE(torch::equal(texture.vertex_colors(vertices, c.weights), texture.vertex_colors(vertices, c.weights)));
   // Any other rig (names that are not SMPL's): colours per bone with patterns, no face.
   std::vector<std::string> names;
   for (int64_t j = 0; j < c.num_joints(); ++j) names.push_back("bone." + std::to_string(j));
-  const SurfaceTexture generic(c.vertices * 30, c.weights, names);  // 51 m tall
-  const auto generic_colours = generic.vertex_colors(c.vertices * 30, c.weights).to(torch::kFloat32);
+  const SurfaceTexture generic(vertices * 30, c.weights, names);  // 51 m tall
+  const auto generic_colours = generic.vertex_colors(vertices * 30, c.weights).to(torch::kFloat32);
   EXPECT_GT(std::get<0>(torch::_unique(generic_colours.select(1, 0) * 65536 + generic_colours.select(1, 1) * 256 +
                                        generic_colours.select(1, 2)))
                 .numel(),
             10);
-  testing::expect_error([&] { SurfaceTexture(c.vertices, c.weights, {"a", "b"}); }, {"joint names"});
+  testing::expect_error([&] { SurfaceTexture(vertices, c.weights, {"a", "b"}); }, {"joint names"});
 }
 
 }  // namespace

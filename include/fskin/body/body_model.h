@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "fskin/geometry/mesh.h"
+#include "fskin/skeleton/rigged_mesh.h"
 #include "fskin/skeleton/skeleton.h"
 
 namespace fskin {
@@ -57,6 +58,8 @@ class BodyModel {
   // Skeleton with rest joints regressed from the template (betas = 0).
   Skeleton skeleton() const;
   Mesh template_mesh() const;
+  // The template, its skinning weights and skeleton as a rig (no blend shapes).
+  RiggedMesh rig() const;
 
   // axis_angle [B, J, 3]; betas [B, S'] (S' <= S, or undefined); trans [B, 3] or undefined;
   // joint_translations [B, J, 3] or undefined (forward_kinematics.h).

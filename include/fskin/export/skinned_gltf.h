@@ -21,14 +21,12 @@
 
 #include "fskin/data/pose_set.h"
 #include "fskin/geometry/mesh.h"
-#include "fskin/skeleton/skeleton.h"
+#include "fskin/skeleton/rigged_mesh.h"
 
 namespace fskin {
 
-struct SkinnedCharacter {
-  Mesh mesh;              // the rest (bind) pose
-  torch::Tensor weights;  // [V, J] >= 0, rows summing to 1
-  Skeleton skeleton;      // names, parents, rest joints of the bind pose
+// A rig (mesh, weights, skeleton in the bind pose) and what the file adds.
+struct SkinnedCharacter : RiggedMesh {
   PoseSet animation;      // optional (size() == 0: none); poses relative to the rest pose
   double fps = 30;
   std::string animation_name = "poses";
@@ -36,7 +34,8 @@ struct SkinnedCharacter {
   // four; 0 keeps every joint's weight (the exact skinning, ceil(J / 4) sets).
   int64_t influences = 4;
 
-  // Throws fskin::Error prefixed with `context` on mismatched shapes.
+  // Throws fskin::Error prefixed with `context` unless the rig is valid
+  // (RiggedMesh::validate) and the animation, fps and influences fit it.
   void validate(const std::string& context) const;
 };
 

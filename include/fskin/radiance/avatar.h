@@ -52,7 +52,7 @@ struct RayRender {
 
 class AvatarImpl : public torch::nn::Module {
  public:
-  AvatarImpl(const AvatarCharacter& character, AvatarOptions options);
+  AvatarImpl(const RiggedMesh& character, AvatarOptions options);
 
   // The posed frame of bones [J, 4, 4] (float32, canonical -> posed).
   PosedFrame pose(const torch::Tensor& bones);

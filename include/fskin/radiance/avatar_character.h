@@ -1,25 +1,16 @@
 #pragma once
-// The rigged character of an image dataset and of an avatar run
-// (canonical.npz): canonical mesh, skinning weights and skeleton.
-#include <torch/types.h>
-
-#include <cstdint>
+// canonical.npz: the rigged character (skeleton/rigged_mesh.h) of an image
+// dataset and of an avatar run: arrays vertices [V, 3], faces [F, 3],
+// weights [V, J], joints [J, 3], parents [J], joint_names.
 #include <string>
-#include <vector>
+
+#include "fskin/skeleton/rigged_mesh.h"
 
 namespace fskin {
 
-// The character of an image dataset (canonical.npz).
-struct AvatarCharacter {
-  torch::Tensor vertices;  // [V, 3] canonical
-  torch::Tensor faces;     // [F, 3] int64
-  torch::Tensor weights;   // [V, J]
-  torch::Tensor joints;    // [J, 3] canonical
-  std::vector<std::string> joint_names;
-  std::vector<int64_t> parents;
-  int64_t num_joints() const { return static_cast<int64_t>(parents.size()); }
-  static AvatarCharacter load(const std::string& path);
-  void save(const std::string& path) const;
-};
+// Throws fskin::Error naming `path` and the problem for a missing or
+// malformed file.
+RiggedMesh load_canonical_character(const std::string& path);
+void save_canonical_character(const RiggedMesh& character, const std::string& path);
 
 }  // namespace fskin

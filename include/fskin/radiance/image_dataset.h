@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "fskin/radiance/avatar_character.h"
+#include "fskin/skeleton/rigged_mesh.h"
 #include "fskin/data/pose_set.h"
 #include "fskin/geometry/pinhole_camera.h"
 
@@ -47,7 +47,7 @@ class ImageDataset {
   // Reads manifest.json and canonical.npz; throws fskin::Error naming the file.
   explicit ImageDataset(std::string dir);
   const std::string& dir() const { return dir_; }
-  const AvatarCharacter& character() const { return character_; }
+  const RiggedMesh& character() const { return character_; }
   std::array<double, 3> background() const { return background_; }
   std::vector<std::string> split_names() const { return splits_; }
   // Loads a split, checking that images, masks, cameras and poses agree (counts,
@@ -64,7 +64,7 @@ class ImageDataset {
 
  private:
   std::string dir_;
-  AvatarCharacter character_;
+  RiggedMesh character_;
   std::array<double, 3> background_{1.0, 1.0, 1.0};
   std::vector<std::string> splits_;
   std::string model_source_, canonical_pose_option_ = "default";

@@ -1,0 +1,20 @@
+#include "fskin/skeleton/rigged_mesh.h"
+
+#include <torch/torch.h>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+
+namespace fskin {
+
+void RiggedMesh::validate(const std::string& context) const {
+  mesh.validate(context);
+  skeleton.validate(context);
+  expect_shape(weights, {mesh.num_vertices(), skeleton.num_joints()}, context + ": weights");
+  expect_finite(weights, context + ": weights");
+  FSKIN_CHECK(weights.numel() == 0 || (weights.min().item<float>() >= 0 &&
+                                       (weights.to(torch::kFloat64).sum(1) - 1).abs().max().item<double>() < 1e-3),
+              "{}: skinning weights must be >= 0 with rows summing to 1", context);
+}
+
+}  // namespace fskin
