@@ -75,7 +75,7 @@ OccupancyNetworkImpl::OccupancyNetworkImpl(const OccupancyNetworkOptions& option
 
 torch::Tensor OccupancyNetworkImpl::encode(const torch::Tensor& x) const {
   const auto u = options_.input.apply(x);
-  const auto frequencies = positional_encoding(u, options_.encoding_frequencies);
+  const auto frequencies = positional_encoding(u, options_.encoding_frequencies, frequency_window_);
   if (options_.hash_levels == 0) return frequencies;
   // The normalised box [-1, 1] (longest side) onto the hash grid's unit cube.
   const auto unit = ((u.reshape({-1, 3}) + 1) * 0.5).to(hash_table_.scalar_type());

@@ -99,6 +99,8 @@ const std::vector<ConfigKey> kKeys = {
     {"steps", "steps", [](const json& v) { return integer_in(v, 0, kNoMax); }},
 
     {"model.canonical.encoding.frequencies", "encoding_frequencies", [](const json& v) { return integer_in(v, 0, 16); }},
+    {"model.canonical.encoding.coarse_to_fine.start", "encoding_window_start", [](const json& v) { return number_in(v, 0, 16); }},
+    {"model.canonical.encoding.coarse_to_fine.fraction", "encoding_window_fraction", [](const json& v) { return number_in(v, 0, 1); }},
     {"model.canonical.encoding.hash.levels", "occupancy_hash_levels", [](const json& v) { return integer_in(v, 0, 32); }},
     {"model.canonical.encoding.hash.log2_table_size", "occupancy_hash_log2_table_size", [](const json& v) { return integer_in(v, 4, 24); }},
     {"model.canonical.encoding.hash.base_resolution", "occupancy_hash_base_resolution", [](const json& v) { return integer_in(v, 1, 1 << 20); }},

@@ -80,6 +80,7 @@ StepLosses OccupancyTrainable::step_losses(int64_t step, uint64_t seed, const Sh
   // whole batch, so the mean over the ranks is one process's loss.
   const auto whole =
       to_device(source_.batch(frames, config_.surface_points, config_.uniform_points, seed), device_);
+  model_->set_frequency_window(frequency_window(config_, step));
   OccupancyBatch batch = whole;
   if (shard.count > 1) {
     const int64_t share = frames / shard.count, first = shard.index * share;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "fskin/core/error.h"
 #include "fskin/training/config_schema.h"
@@ -13,18 +14,36 @@
 
 namespace fskin {
 
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
-    TrainConfig, data, method, seed, steps, frames_per_batch, surface_points, uniform_points, learning_rate, grad_clip,
-    warmup_steps, warmup_factor, decay_fraction, decay_factor, pin_layers, pin_per_bone_dim, pin_pose_hidden_dim, pin_space_hidden_dim,
-    pin_space_output, pin_space_omega, pin_map_hidden_dim, pin_rotation, pin_pose_frame, pin_bone_dropout,
-    pin_learning_rate_factor,
-    bootstrap_epochs, bone_points_per_bone, joint_weight_loss_weight, bootstrap_bones, skinning_prior_steps, checkpoint_every, keep_checkpoints,
-    validate_every, validation_frames,
-    occupancy_hidden_dim, occupancy_hidden_layers, occupancy_skip_layers, pose_conditioning, pose_embedding_dim,
-    pose_layer, encoding_frequencies, occupancy_hash_levels, occupancy_hash_log2_table_size,
-    occupancy_hash_base_resolution, occupancy_hash_finest_resolution, init_radius, skinning_hidden_dim, skinning_hidden_layers, skinning_learning_rate_factor, canonical_sparsity_weight,
-    canonical_sparsity_points, grid_resolution, thin_part_grid_resolution, thin_part_fraction, grid_padding, grid, part_hidden_dim, part_hidden_layers, start_bones,
-    max_iterations, snarf_roots, implicit_gradient, eval_chunk_points)
+// Every field, in the flat document's order (nlohmann's own macro stops at 64 fields).
+#define FSKIN_TRAIN_CONFIG_FIELDS(X) \
+  X(data) X(method) X(seed) X(steps) X(frames_per_batch) X(surface_points) X(uniform_points) X(learning_rate) \
+  X(grad_clip) X(warmup_steps) X(warmup_factor) X(decay_fraction) X(decay_factor) X(pin_layers) \
+  X(pin_per_bone_dim) X(pin_pose_hidden_dim) X(pin_space_hidden_dim) X(pin_space_output) X(pin_space_omega) \
+  X(pin_map_hidden_dim) X(pin_rotation) X(pin_pose_frame) X(pin_bone_dropout) X(pin_learning_rate_factor) \
+  X(bootstrap_epochs) X(bone_points_per_bone) X(joint_weight_loss_weight) X(bootstrap_bones) \
+  X(skinning_prior_steps) X(checkpoint_every) X(keep_checkpoints) X(validate_every) X(validation_frames) \
+  X(occupancy_hidden_dim) X(occupancy_hidden_layers) X(occupancy_skip_layers) X(pose_conditioning) \
+  X(pose_embedding_dim) X(pose_layer) X(encoding_frequencies) X(encoding_window_start) \
+  X(encoding_window_fraction) X(occupancy_hash_levels) X(occupancy_hash_log2_table_size) \
+  X(occupancy_hash_base_resolution) X(occupancy_hash_finest_resolution) X(init_radius) X(skinning_hidden_dim) \
+  X(skinning_hidden_layers) X(skinning_learning_rate_factor) X(canonical_sparsity_weight) \
+  X(canonical_sparsity_points) X(grid_resolution) X(thin_part_grid_resolution) X(thin_part_fraction) \
+  X(grid_padding) X(grid) X(part_hidden_dim) X(part_hidden_layers) X(start_bones) X(max_iterations) \
+  X(snarf_roots) X(implicit_gradient) X(eval_chunk_points)
+
+void to_json(nlohmann::json& j, const TrainConfig& c) {
+#define FSKIN_FIELD_TO_JSON(field) j[#field] = c.field;
+  FSKIN_TRAIN_CONFIG_FIELDS(FSKIN_FIELD_TO_JSON)
+#undef FSKIN_FIELD_TO_JSON
+}
+
+// Missing keys keep their defaults (as NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT).
+void from_json(const nlohmann::json& j, TrainConfig& c) {
+  const TrainConfig defaults;
+#define FSKIN_FIELD_FROM_JSON(field) c.field = j.value(#field, defaults.field);
+  FSKIN_TRAIN_CONFIG_FIELDS(FSKIN_FIELD_FROM_JSON)
+#undef FSKIN_FIELD_FROM_JSON
+}
 
 TrainConfig TrainConfig::full() {
   TrainConfig c;
@@ -249,6 +268,15 @@ ModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& s
   model.part_hidden_layers = config.part_hidden_layers;
   o.skinning_learning_rate_factor = config.skinning_learning_rate_factor;
   return model;
+}
+
+double frequency_window(const TrainConfig& config, int64_t step) {
+  const double opening_steps = config.encoding_window_fraction * static_cast<double>(config.steps);
+  const double progress = opening_steps > 0 ? static_cast<double>(step + 1) / opening_steps : 1.0;
+  if (progress >= 1.0) return std::numeric_limits<double>::infinity();
+  const double frequencies = static_cast<double>(config.encoding_frequencies);
+  const double start = std::min(config.encoding_window_start, frequencies);
+  return start + (frequencies - start) * progress;
 }
 
 std::shared_ptr<OccupancyModel> make_model(const TrainConfig& config, const CanonicalSkeleton& skeleton) {

@@ -8,6 +8,7 @@
 // optional hash-grid encoding.
 #include <torch/torch.h>
 
+#include <limits>
 #include <vector>
 
 #include "fskin/networks/input_normalization.h"
@@ -56,11 +57,16 @@ class OccupancyNetworkImpl : public torch::nn::Module {
   // pose_dim > 0) -> occupancy logits [B, ...].
   torch::Tensor forward(const torch::Tensor& x, const torch::Tensor& pose = {});
   const OccupancyNetworkOptions& options() const { return options_; }
+  // The frequency encoding's coarse-to-fine window (networks/frequency_encoding.h);
+  // infinity, the default, opens every band. Not saved: a trainer sets it per step.
+  void set_frequency_window(double window) { frequency_window_ = window; }
+  double frequency_window() const { return frequency_window_; }
 
  private:
   torch::Tensor encode(const torch::Tensor& x) const;
 
   OccupancyNetworkOptions options_;
+  double frequency_window_ = std::numeric_limits<double>::infinity();
   Mlp mlp_{nullptr};
   torch::Tensor hash_table_;  // [L, 2^T, F] when hash_levels > 0
   torch::nn::Linear pose_embedding_{nullptr};

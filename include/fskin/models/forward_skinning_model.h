@@ -40,6 +40,7 @@ class ForwardSkinningModel : public OccupancyModel {
   torch::Tensor canonical_logits(const torch::Tensor& x_canonical, const torch::Tensor& pose) override;
   SkinningField* canonical_skinning_field() override { return skinning_.get(); }
   SkinningField* deformer_skinning_field() override { return &deformer().field(); }
+  void set_frequency_window(double window) override { occupancy_->set_frequency_window(window); }
   // Skinning weights the deformer uses at canonical points [..., 3] -> [..., J].
   torch::Tensor skinning_weights(const torch::Tensor& x_canonical);
 

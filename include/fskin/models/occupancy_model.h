@@ -51,6 +51,10 @@ class OccupancyModel : public torch::nn::Module {
   // nullptr for methods without a deformer.
   virtual SkinningField* deformer_skinning_field() { return nullptr; }
 
+  // The canonical occupancy network's coarse-to-fine frequency window
+  // (networks/frequency_encoding.h); a no-op for models without a frequency encoding.
+  virtual void set_frequency_window(double window) { (void)window; }
+
   // Fixes what can be precomputed for inference (Fast-SNARF's grid) until the
   // next train(true).
   virtual void freeze_for_inference() {}

@@ -69,6 +69,11 @@ struct TrainConfig {
   int64_t pose_embedding_dim = 8;
   int64_t pose_layer = 2;
   int64_t encoding_frequencies = 4;  // NeRF frequencies (papers: 0, 4 for clothed data)
+  // Coarse to fine (networks/frequency_encoding.h): the frequency window
+  // opens `encoding_window_start` bands at step 0 and widens linearly to all of
+  // them at encoding_window_fraction x steps; fraction 0 opens all from the start.
+  double encoding_window_start = 0;
+  double encoding_window_fraction = 0;
   // Hash-grid encoding of the canonical point, concatenated to the network's
   // input (canonical/occupancy_network.h): levels (0: none), table rows 2^T
   // per level, and the coarsest and finest grid resolutions along the
@@ -217,6 +222,10 @@ struct TrainConfig {
 // The model a config describes for a skeleton (bones, pose width, voxel box
 // spanning skeleton.extent, start bones by joint name); validates the config.
 ModelOptions model_options(const TrainConfig& config, const CanonicalSkeleton& skeleton);
+// The canonical frequency encoding's window at step `step` (0-based): every
+// band (infinity) from step encoding_window_fraction x steps - 1 on, so the
+// last step and everything after training see the plain encoding.
+double frequency_window(const TrainConfig& config, int64_t step);
 // make_model(model_options(config, skeleton)).
 std::shared_ptr<OccupancyModel> make_model(const TrainConfig& config, const CanonicalSkeleton& skeleton);
 

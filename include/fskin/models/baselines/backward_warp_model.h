@@ -27,6 +27,7 @@ class BackwardWarpModel : public OccupancyModel {
                               Aggregation aggregation) override;
   bool has_canonical_shape() const override { return true; }
   torch::Tensor canonical_logits(const torch::Tensor& x_canonical, const torch::Tensor& pose) override;
+  void set_frequency_window(double window) override { occupancy_->set_frequency_window(window); }
 
  protected:
   explicit BackwardWarpModel(const OccupancyNetworkOptions& occupancy);

@@ -14,6 +14,7 @@ class PoseOnetModel : public OccupancyModel {
   explicit PoseOnetModel(const OccupancyNetworkOptions& occupancy);
   OccupancyPrediction predict(const torch::Tensor& points, const torch::Tensor& bones, const torch::Tensor& pose,
                               Aggregation aggregation) override;
+  void set_frequency_window(double window) override { network_->set_frequency_window(window); }
 
  private:
   OccupancyNetwork network_{nullptr};
