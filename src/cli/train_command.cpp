@@ -4,11 +4,20 @@
 
 #include "cli/commands.h"
 #include "fskin/core/device.h"
-#include "fskin/models/method.h"
+#include "fskin/models/model_registry.h"
 #include "fskin/engine/stop_signal.h"
 #include "fskin/training/train_run.h"
 
 namespace fskin::cli {
+
+namespace {
+// The model types of the registry, one per line.
+std::string method_help() {
+  std::string help = "the model (model.type; default fast-snarf):";
+  for (const auto& type : model_types()) help += "\n  " + type.name + ": " + type.summary;
+  return help;
+}
+}  // namespace
 
 void register_train(CLI::App& app) {
   struct Options {
@@ -21,8 +30,7 @@ void register_train(CLI::App& app) {
   auto opt = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("train", "Train an articulated occupancy model (SNARF / Fast-SNARF / baselines)");
   cmd->add_option("--data", opt->data, "dataset directory (fskin data build); default: the run's");
-  cmd->add_option("--method", opt->method, "fast-snarf, snarf, or a baseline: pose-onet, back-lbs, back-d, piecewise")
-      ->check(CLI::IsMember(method_names()));
+  cmd->add_option("--method", opt->method, method_help())->check(CLI::IsMember(method_names()));
   cmd->add_option("--out", opt->out, "run directory (config, log.jsonl, checkpoints)")->required();
   cmd->add_option("--config", opt->config, "JSON config overlaid on the defaults");
   cmd->add_option("--steps", opt->steps, "total training steps");

@@ -13,7 +13,7 @@ namespace fskin {
 
 ForwardSkinningModel::ForwardSkinningModel(const ForwardSkinningModelOptions& options) : options_(options) {
   FSKIN_CHECK(options.method == Method::FastSnarf || options.method == Method::Snarf,
-              "ForwardSkinningModel: method {} is not snarf or fast-snarf", method_name(options.method));
+              "ForwardSkinningModel: the method must be snarf or fast-snarf");
   occupancy_ = register_module("occupancy", OccupancyNetwork(options.occupancy));
   skinning_ = register_module("skinning", std::make_shared<MlpSkinningField>(options.skinning));
   if (options.method == Method::Snarf) {

@@ -8,8 +8,7 @@ namespace fskin {
 
 namespace {
 const ForwardSkinningModelOptions& checked_lbs(const InsModelOptions& options) {
-  FSKIN_CHECK(options.lbs.method == Method::FastSnarf, "ins: the LBS search must be Fast-SNARF's, got {}",
-              method_name(options.lbs.method));
+  FSKIN_CHECK(options.lbs.method == Method::FastSnarf, "ins: the LBS search must be Fast-SNARF's");
   FSKIN_CHECK(options.lbs.occupancy.pose_dim == 0, "ins: the canonical shape must be pose-free (pose_dim = 0)");
   return options.lbs;
 }

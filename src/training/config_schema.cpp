@@ -9,7 +9,7 @@
 
 #include "fskin/core/error.h"
 #include "fskin/invertible/pose_encoding.h"
-#include "fskin/models/method.h"
+#include "fskin/models/model_registry.h"
 
 namespace fskin {
 namespace {

@@ -4,7 +4,7 @@
 #include <torch/torch.h>
 
 #include "fskin/geometry/mesh_topology.h"
-#include "fskin/models/model_factory.h"
+#include "fskin/models/model_registry.h"
 #include "fskin/training/occupancy_training.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"

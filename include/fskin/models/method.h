@@ -1,9 +1,7 @@
 #pragma once
 // The methods fskin trains: SNARF and Fast-SNARF (forward skinning), INS, and
-// the baselines of SNARF sec. 4.2.
-#include <string>
-#include <vector>
-
+// the baselines of SNARF sec. 4.2. Their names (a config's model.type) and
+// builders are in the registry, models/model_registry.h.
 namespace fskin {
 
 enum class Method {
@@ -15,9 +13,5 @@ enum class Method {
   Piecewise,  // "piecewise": rigid parts, one occupancy network per bone, max over parts
   Ins,        // "ins": invertible networks around the LBS, pose-free shape (INS)
 };
-
-Method parse_method(const std::string& name);  // throws fskin::Error listing the names
-std::string method_name(Method method);
-const std::vector<std::string>& method_names();
 
 }  // namespace fskin

@@ -3,7 +3,7 @@
 // the occupancy of posed points. SNARF and Fast-SNARF (forward_skinning_model.h),
 // INS (ins_model.h) and the baselines of SNARF sec. 4.2 (baselines/). The
 // trainer, the losses, evaluation and meshing see only this interface, so every
-// method trains, resumes and evaluates the same way; model_factory.h builds one.
+// method trains, resumes and evaluates the same way; model_registry.h builds one.
 #include <torch/torch.h>
 
 #include <vector>

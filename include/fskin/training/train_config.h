@@ -11,7 +11,7 @@
 #include <memory>
 
 #include "fskin/data/canonical_skeleton.h"
-#include "fskin/models/model_factory.h"
+#include "fskin/models/model_registry.h"
 
 namespace fskin {
 

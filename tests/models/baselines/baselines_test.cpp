@@ -7,7 +7,7 @@
 #include "fskin/models/baselines/pose_onet.h"
 #include "fskin/core/error.h"
 #include "fskin/skeleton/lbs.h"
-#include "fskin/models/model_factory.h"
+#include "fskin/models/model_registry.h"
 #include "fskin/training/occupancy_training.h"
 #include "test_util.h"
 #include "training/synthetic_limb.h"
