@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "cli/commands.h"
 #include "fskin/core/error.h"
@@ -17,6 +18,7 @@
 #include "fskin/io/mesh_io.h"
 #include "fskin/radiance/avatar_evaluation.h"
 #include "fskin/radiance/avatar_mesh.h"
+#include "fskin/radiance/avatar_config.h"
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/engine/stop_signal.h"
 #include "fskin/util/atomic_file.h"
@@ -63,6 +65,8 @@ void register_avatar(CLI::App& app) {
   // ---- train
   auto train = std::make_shared<AvatarTrainOptions>();
   auto quiet = std::make_shared<bool>(false);
+  auto config_file = std::make_shared<std::string>();
+  auto assignments = std::make_shared<std::vector<std::string>>();
   auto* t = cmd->add_subcommand("train", "Learn a canonical radiance field through the Fast-SNARF deformer from an "
                                          "image dataset (`fskin data images`); resumable, Ctrl-C saves a checkpoint");
   t->add_option("--data", train->data_dir, "image dataset directory")->required();
@@ -79,11 +83,25 @@ void register_avatar(CLI::App& app) {
   t->add_option("--log2-table-size", train->avatar.field.encoding.log2_table_size, "hash-table rows per level (log2)");
   t->add_option("--checkpoint-every", train->checkpoint_every, "steps between checkpoints")->check(CLI::PositiveNumber);
   t->add_option("--seed", train->seed, "random seed");
+  t->add_option("--config", *config_file,
+                 "JSON config overlaid on the options (nested per component; `fskin config show RUN` prints one)");
+  t->add_option("--set", *assignments, "config override a.b.c=value after --config (repeatable), e.g. "
+                                       "model.occupancy_grid.every=50");
   t->add_flag("--resume", train->resume, "continue the run in --out from its newest checkpoint");
   t->add_flag("--quiet", *quiet, "no progress bar");
-  t->callback([train, quiet] {
+  t->callback([train, quiet, config_file, assignments] {
     StopSignal stop;
     AvatarTrainOptions options = *train;
+    if (!config_file->empty()) {
+      nlohmann::json document;
+      try {
+        document = nlohmann::json::parse(read_file(*config_file));
+      } catch (const nlohmann::json::exception& e) {
+        fail("{}: {}", *config_file, e.what());
+      }
+      options = avatar_options_from_document(document, options, *config_file);
+    }
+    for (const auto& assignment : *assignments) set_avatar_option(options, assignment);
     options.progress = !*quiet;
     options.stop = &stop;
     // Launched as one of several ranks (torchrun's variables): data-parallel.

@@ -7,6 +7,7 @@
 #include "cli/commands.h"
 #include "fskin/core/error.h"
 #include "fskin/engine/run_directory.h"
+#include "fskin/radiance/avatar_config.h"
 #include "fskin/training/train_config.h"
 #include "fskin/util/atomic_file.h"
 
@@ -42,7 +43,9 @@ void register_config(CLI::App& app) {
       }
       FSKIN_CHECK(fs::exists(run.avatar_config_file()), "{}: not a run directory (no config.json or avatar.json)",
                   opt->target);
-      std::printf("%s\n", nlohmann::json::parse(read_file(run.avatar_config_file())).dump(2).c_str());
+      // Through the loader too: an avatar run written flat comes out nested.
+      const auto options = read_avatar_run_config(run.avatar_config_file(), run.path());
+      std::printf("%s\n", avatar_run_document(options).dump(2).c_str());
       return;
     }
     TrainConfig c = opt->full ? TrainConfig::full() : TrainConfig{};

@@ -14,105 +14,17 @@
 
 #include "fskin/core/error.h"
 #include "fskin/radiance/avatar_character.h"
+#include "fskin/radiance/avatar_config.h"
 #include "fskin/engine/checkpoint.h"
 #include "fskin/engine/run_directory.h"
 #include "fskin/engine/run_lock.h"
 #include "fskin/engine/trainer.h"
 #include "fskin/util/atomic_file.h"
-#include "fskin/version.h"
 
 namespace fskin {
 namespace {
 
 namespace fs = std::filesystem;
-
-nlohmann::json options_json(const AvatarTrainOptions& o) {
-  const auto& a = o.avatar;
-  const auto& e = a.field.encoding;
-  return {
-      {"format", "fskin-avatar-run"},
-      {"fskin_version", FSKIN_VERSION},
-      {"data_dir", fs::absolute(o.data_dir).string()},
-      {"encoding",
-       {{"levels", e.levels},
-        {"features_per_level", e.features_per_level},
-        {"log2_table_size", e.log2_table_size},
-        {"base_resolution", e.base_resolution},
-        {"per_level_scale", e.per_level_scale}}},
-      {"hidden_dim", a.field.hidden_dim},
-      {"hidden_layers", a.field.hidden_layers},
-      {"skinning_grid_resolution", a.skinning_grid_resolution},
-      {"canonical_grid_resolution", a.canonical_grid_resolution},
-      {"posed_grid_resolution", a.posed_grid_resolution},
-      {"samples_per_diagonal", a.samples_per_diagonal},
-      {"start_bones", a.start_bones},
-      {"occupancy_opacity", a.occupancy_opacity},
-      {"steps", o.steps},
-      {"rays_per_step", o.rays_per_step},
-      {"images_per_step", o.images_per_step},
-      {"mask_box_fraction", o.mask_box_fraction},
-      {"learning_rate", o.learning_rate},
-      {"decay_fraction", o.decay_fraction},
-      {"decay_factor", o.decay_factor},
-      {"huber_delta", o.huber_delta},
-      {"opacity_weight", o.opacity_weight},
-      {"background", o.background},
-      {"occupancy_every", o.occupancy_every},
-      {"occupancy_warmup", o.occupancy_warmup},
-      {"checkpoint_every", o.checkpoint_every},
-      {"log_every", o.log_every},
-      {"seed", o.seed},
-  };
-}
-
-// The options a run recorded in its avatar.json, validated: every failure
-// names the file.
-AvatarTrainOptions read_run_options(const std::string& path, const std::string& run_dir) {
-  try {
-    const auto j = nlohmann::json::parse(read_file(path));
-    FSKIN_CHECK(j.at("format").get<std::string>() == "fskin-avatar-run", "{}: not an avatar run", path);
-    AvatarTrainOptions o;
-    auto& a = o.avatar;
-    auto& e = a.field.encoding;
-    const auto& enc = j.at("encoding");
-    e.levels = enc.at("levels");
-    e.features_per_level = enc.at("features_per_level");
-    e.log2_table_size = enc.at("log2_table_size");
-    e.base_resolution = enc.at("base_resolution");
-    e.per_level_scale = enc.at("per_level_scale");
-    a.field.hidden_dim = j.at("hidden_dim");
-    a.field.hidden_layers = j.at("hidden_layers");
-    a.skinning_grid_resolution = j.at("skinning_grid_resolution");
-    a.canonical_grid_resolution = j.at("canonical_grid_resolution");
-    a.posed_grid_resolution = j.at("posed_grid_resolution");
-    a.samples_per_diagonal = j.at("samples_per_diagonal");
-    a.start_bones = j.at("start_bones");
-    a.occupancy_opacity = j.at("occupancy_opacity");
-    o.data_dir = j.at("data_dir");
-    o.steps = j.at("steps");
-    o.rays_per_step = j.at("rays_per_step");
-    o.images_per_step = j.at("images_per_step");
-    o.mask_box_fraction = j.at("mask_box_fraction");
-    o.learning_rate = j.at("learning_rate");
-    o.decay_fraction = j.at("decay_fraction");
-    o.decay_factor = j.at("decay_factor");
-    o.huber_delta = j.at("huber_delta");
-    o.opacity_weight = j.at("opacity_weight");
-    o.background = j.at("background");
-    o.occupancy_every = j.at("occupancy_every");
-    o.occupancy_warmup = j.at("occupancy_warmup");
-    o.checkpoint_every = j.at("checkpoint_every");
-    o.log_every = j.at("log_every");
-    o.seed = j.at("seed");
-    o.out_dir = run_dir;
-    o.validate();
-    return o;
-  } catch (const nlohmann::json::exception& e) {
-    fail("{}: {}", path, e.what());
-  } catch (const Error& e) {
-    fail("{}: {}", path, e.what());
-  }
-}
 
 }  // namespace
 
@@ -294,7 +206,7 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
     FSKIN_CHECK(requested.resume, "{} already holds an avatar run; pass --resume to continue it or use another --out",
                 run.path());
     // The run's own settings; only the number of steps may change.
-    options = read_run_options(config_file, run.path());
+    options = read_avatar_run_config(config_file, run.path());
     options.steps = requested.steps;
     options.progress = requested.progress;
     options.stop = requested.stop;
@@ -307,7 +219,7 @@ AvatarTrainSummary train_avatar(const AvatarTrainOptions& requested) {
   if (parallel) parallel->barrier();
   if (writer) {
     create_output_directory(run.path());
-    write_file_atomically(config_file, options_json(options).dump(2) + "\n");
+    write_file_atomically(config_file, avatar_run_document(options).dump(2) + "\n");
     save_canonical_character(data.character(), run.character_file());
   }
 
@@ -348,7 +260,7 @@ TrainedAvatar TrainedAvatar::load(const std::string& run_dir) {
   FSKIN_CHECK(fs::exists(config_file), "{}: not an avatar run (no avatar.json; train one with `fskin avatar train`)",
               run_dir);
   TrainedAvatar out;
-  out.options = read_run_options(config_file, run_dir);
+  out.options = read_avatar_run_config(config_file, run_dir);
   const auto character = load_canonical_character(run.character_file());
   out.avatar = Avatar(character, out.options.avatar);
   out.step = load_model_checkpoint(run, CheckpointChoice{}, kAvatarArchiveKey,

@@ -278,14 +278,6 @@ json nest_config(const json& flat) {
   return nested;
 }
 
-json config_overlay(const std::string& key, const json& value) {
-  FSKIN_CHECK(!key.empty() && key.find('/') == std::string::npos && key.find('~') == std::string::npos,
-              "config: '{}' is not a key name or path", key);
-  json overlay = json::object();
-  overlay[pointer(key)] = value;
-  return overlay;
-}
-
 json flatten_config(const json& document, const std::string& context) {
   FSKIN_CHECK(document.is_object(), "{}: the config must be a JSON object", context);
   Flattener flattener(context);

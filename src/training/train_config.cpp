@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "fskin/core/error.h"
+#include "fskin/engine/config_document.h"
 #include "fskin/training/config_schema.h"
 #include "fskin/deformers/start_bones.h"
 #include "fskin/geometry/character_size.h"
@@ -146,17 +147,8 @@ TrainConfig TrainConfig::load_run(const std::string& path) {
 }
 
 void TrainConfig::set(const std::string& assignment) {
-  const auto eq = assignment.find('=');
-  FSKIN_CHECK(eq != std::string::npos && eq > 0, "--set '{}': expected key=value", assignment);
-  const std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
-  nlohmann::json value;
-  try {
-    value = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception&) {
-    value = text;  // a bare string such as method=snarf
-  }
   // A nested path (model.deformer.grid.resolution=48) or a flat name (grid_resolution=48).
-  *this = from_json(config_overlay(key, value).dump(), "--set " + assignment, *this);
+  *this = from_json(assignment_overlay(assignment, "--set").dump(), "--set " + assignment, *this);
 }
 
 void TrainConfig::validate() const {

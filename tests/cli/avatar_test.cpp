@@ -155,6 +155,21 @@ TEST_F(AvatarCommands, OutputsMayNotOverwriteTheDataOrPretendToBeJpeg) {
   EXPECT_FALSE(fs::exists(path("x.jpg")));
 }
 
+TEST_F(AvatarCommands, ConfigFileAndSetReachTheOptionsAndConfigShowPrintsThem) {
+  write_file_atomically(path("avatar_config.json"), R"({"model": {"rendering": {"samples_per_diagonal": 100}}})");
+  const std::string train = "avatar train --data " + path("images") + " --steps 1 --rays 64 --levels 4 " +
+                            "--log2-table-size 12 --quiet --config " + path("avatar_config.json");
+  ASSERT_EQ(run_cli(train + " --out " + path("run_config") + " --set losses.opacity.weight=0.25"), 0) << log();
+  ASSERT_EQ(run_cli("config show " + path("run_config")), 0) << log();
+  const auto shown = nlohmann::json::parse(log());
+  EXPECT_EQ(shown.at("model").at("rendering").at("samples_per_diagonal"), 100);
+  EXPECT_EQ(shown.at("losses").at("opacity").at("weight"), 0.25);
+  EXPECT_EQ(shown.at("model").at("field").at("encoding").at("levels"), 4);  // the flag
+  ASSERT_NE(run_cli(train + " --out " + path("run_config2") + " --set losses.opacity.wieght=1"), 0);
+  EXPECT_NE(log().find("losses.opacity.wieght: unknown key"), std::string::npos) << log();
+  EXPECT_FALSE(fs::exists(path("run_config2")));
+}
+
 TEST_F(AvatarCommands, BadInputsAreNamed) {
   ASSERT_NE(run_cli("avatar train --data " + path("nothing") + " --out " + path("run2") + " --quiet"), 0);
   EXPECT_NE(log().find("manifest.json"), std::string::npos) << log();

@@ -8,6 +8,7 @@
 
 #include "fskin/radiance/avatar_evaluation.h"
 #include "fskin/radiance/avatar_mesh.h"
+#include "fskin/radiance/avatar_config.h"
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/radiance/image_metrics.h"
 #include "fskin/skeleton/lbs.h"
@@ -188,14 +189,61 @@ TEST(AvatarTraining, DamagedRunSettingsAreNamed) {
   write_file_atomically(config, text.substr(0, text.size() / 2));  // cut by a crash of another program
   testing::expect_error([&] { TrainedAvatar::load(options.out_dir); }, {config, "parse"});
   auto j = nlohmann::json::parse(text);
-  j["encoding"]["levels"] = 0;
+  j["model"]["field"]["encoding"]["levels"] = 0;
   write_file_atomically(config, j.dump());
   testing::expect_error([&] { TrainedAvatar::load(options.out_dir); }, {config, "levels"});
   options.resume = true;
   testing::expect_error([&] { train_avatar(options); }, {config, "levels"});
-  j["encoding"]["levels"] = "many";
+  j["model"]["field"]["encoding"]["levels"] = "many";
   write_file_atomically(config, j.dump());
-  testing::expect_error([&] { TrainedAvatar::load(options.out_dir); }, {config, "number"});
+  testing::expect_error([&] { TrainedAvatar::load(options.out_dir); },
+                        {config, "model.field.encoding.levels: must be a whole number, got \"many\""});
+  j["model"]["field"]["encoding"]["levels"] = 4;
+  j["model"]["field"]["width"] = 4;
+  write_file_atomically(config, j.dump());
+  testing::expect_error([&] { TrainedAvatar::load(options.out_dir); }, {config, "model.field.width: unknown key"});
+}
+
+TEST(AvatarTraining, RunSettingsAreNestedPerComponentAndFlatOnesStillLoad) {
+  auto options = tiny_training("avatar_nested", 1, 64);
+  options.avatar.field.hidden_dim = 24;
+  options.huber_delta = 0.2;
+  train_avatar(options);
+  const auto config = (fs::path(options.out_dir) / "avatar.json").string();
+  const auto nested = nlohmann::json::parse(read_file(config));
+  EXPECT_EQ(nested.at("format"), "fskin-avatar-run");
+  EXPECT_EQ(nested.at("model").at("type"), "fast-snarf-avatar");
+  EXPECT_EQ(nested.at("model").at("field").at("network").at("hidden_dim"), 24);
+  EXPECT_EQ(nested.at("losses").at("colour").at("huber_delta"), 0.2);
+  EXPECT_EQ(nested.at("optimizer").at("type"), "adam");
+  // The flat layout of runs written before the nested one.
+  const nlohmann::json flat = {{"format", "fskin-avatar-run"},
+                               {"data_dir", options.data_dir},
+                               {"encoding", nested.at("model").at("field").at("encoding")},
+                               {"hidden_dim", 24},
+                               {"huber_delta", 0.2},
+                               {"steps", 1}};
+  const auto from_flat = avatar_options_from_document(flat, TrainedAvatar::load(options.out_dir).options, "flat");
+  EXPECT_EQ(from_flat.avatar.field.hidden_dim, 24);
+  EXPECT_EQ(from_flat.huber_delta, 0.2);
+  write_file_atomically(config, flat.dump());
+  EXPECT_EQ(TrainedAvatar::load(options.out_dir).options.avatar.field.hidden_dim, 24);
+
+  // --set a.b.c=v: typed, checked against the defaults' keys, validated.
+  AvatarTrainOptions set = options;
+  set_avatar_option(set, "model.occupancy_grid.every=7");
+  set_avatar_option(set, "data.background=white");
+  EXPECT_EQ(set.occupancy_every, 7);
+  EXPECT_EQ(set.background, "white");
+  testing::expect_error([&] { set_avatar_option(set, "model.occupancy_grid.every=0"); },
+                        {"--set model.occupancy_grid.every=0", "intervals must be >= 1"});
+  testing::expect_error([&] { set_avatar_option(set, "model.grid.every=3"); },
+                        {"model.grid: unknown key", "occupancy_grid"});
+  testing::expect_error([&] { set_avatar_option(set, "steps=1.5"); }, {"steps: must be a whole number, got 1.5"});
+  testing::expect_error([&] { set_avatar_option(set, "optimizer.type=sgd"); },
+                        {"optimizer.type: must be \"adam\"", "sgd"});
+  testing::expect_error([&] { set_avatar_option(set, "seed=-1"); }, {"seed: must be >= 0"});
+  testing::expect_error([&] { set_avatar_option(set, "steps"); }, {"expected key=value"});
 }
 
 }  // namespace

@@ -38,9 +38,6 @@ const ConfigKey* find_config_key(const std::string& path_or_flat);
 // A flat TrainConfig document -> the nested layout (adds the `type` keys).
 nlohmann::json nest_config(const nlohmann::json& flat);
 
-// {"a": {"b": value}} for the key "a.b" (a flat name stays at the top level).
-nlohmann::json config_overlay(const std::string& key, const nlohmann::json& value);
-
 // A config document, nested or flat (or a mix: flat names at the top level
 // are accepted as aliases of their paths), -> flat TrainConfig keys. Unknown
 // keys, wrong `type`s and values that fail their key's check are errors

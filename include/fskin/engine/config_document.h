@@ -1,0 +1,26 @@
+#pragma once
+// Config documents as data, for components whose defaults are a complete
+// nested JSON document (the avatar's, radiance/avatar_config.h): `--set
+// a.b.c=v` assignments and overlays checked against the defaults, with errors
+// that name the key path. (The occupancy models' config has a per-key schema
+// of its own on top of this: training/config_schema.h.)
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace fskin {
+
+// "a.b.c=v" -> {"a": {"b": {"c": v}}}; v is read as JSON (48, 0.5, true,
+// [1, 2]) and otherwise taken as a string (method=snarf). Throws fskin::Error
+// naming `context` when there is no key or no '='.
+nlohmann::json assignment_overlay(const std::string& assignment, const std::string& context);
+
+// Writes every leaf of `overlay` into `base`. Each key path must exist in
+// `base` ("context: model.field.foo: unknown key (known: ...)") and keep its
+// kind: a whole number for a whole number, a number for a number, a string,
+// true / false, a list, or an object ("context: steps: must be a whole
+// number, got "many""). Values are not range-checked here; the component's
+// validate() does that.
+void overlay_document(nlohmann::json& base, const nlohmann::json& overlay, const std::string& context);
+
+}  // namespace fskin
