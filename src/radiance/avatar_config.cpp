@@ -21,97 +21,97 @@ constexpr std::pair<const char*, const char*> kFixedTypes[] = {{"/model/type", "
                                                               {"/optimizer/type", "adam"},
                                                               {"/schedule/type", "cosine-decay"}};
 
-// The flat avatar.json layout (runs written before the nested one): key -> path.
-constexpr std::pair<const char*, const char*> kFlatKeys[] = {
-    {"data_dir", "/data/path"},
-    {"encoding", "/model/field/encoding"},
-    {"hidden_dim", "/model/field/network/hidden_dim"},
-    {"hidden_layers", "/model/field/network/hidden_layers"},
-    {"skinning_grid_resolution", "/model/skinning/grid_resolution"},
-    {"canonical_grid_resolution", "/model/occupancy_grid/canonical_resolution"},
-    {"posed_grid_resolution", "/model/occupancy_grid/posed_resolution"},
-    {"occupancy_opacity", "/model/occupancy_grid/opacity"},
-    {"occupancy_every", "/model/occupancy_grid/every"},
-    {"occupancy_warmup", "/model/occupancy_grid/warmup"},
-    {"samples_per_diagonal", "/model/rendering/samples_per_diagonal"},
-    {"start_bones", "/model/deformer/start_bones"},
-    {"steps", "/steps"},
-    {"seed", "/seed"},
-    {"rays_per_step", "/data/rays_per_step"},
-    {"images_per_step", "/data/images_per_step"},
-    {"mask_box_fraction", "/data/mask_box_fraction"},
-    {"background", "/data/background"},
-    {"learning_rate", "/optimizer/learning_rate"},
-    {"decay_fraction", "/schedule/decay_fraction"},
-    {"decay_factor", "/schedule/decay_factor"},
-    {"huber_delta", "/losses/colour/huber_delta"},
-    {"opacity_weight", "/losses/opacity/weight"},
-    {"checkpoint_every", "/run/checkpoint_every"},
-    {"log_every", "/run/log_every"},
+// Every option once: its path in the nested document, its key in the flat
+// layout of runs written before it (the hash encoding was one flat object,
+// "encoding"), and the member it reads and writes.
+struct Field {
+  const char* path;
+  const char* flat;
+  json (*read)(const AvatarTrainOptions&);
+  void (*write)(AvatarTrainOptions&, const json&);
 };
+
+#define FSKIN_AVATAR_FIELD(path, flat, member)                                  \
+  Field {                                                                       \
+    path, flat, [](const AvatarTrainOptions& o) -> json { return o.member; },   \
+        [](AvatarTrainOptions& o, const json& v) { v.get_to(o.member); }        \
+  }
+
+const Field kFields[] = {
+    FSKIN_AVATAR_FIELD("/model/field/encoding/levels", "encoding/levels", avatar.field.encoding.levels),
+    FSKIN_AVATAR_FIELD("/model/field/encoding/features_per_level", "encoding/features_per_level",
+                       avatar.field.encoding.features_per_level),
+    FSKIN_AVATAR_FIELD("/model/field/encoding/log2_table_size", "encoding/log2_table_size",
+                       avatar.field.encoding.log2_table_size),
+    FSKIN_AVATAR_FIELD("/model/field/encoding/base_resolution", "encoding/base_resolution",
+                       avatar.field.encoding.base_resolution),
+    FSKIN_AVATAR_FIELD("/model/field/encoding/per_level_scale", "encoding/per_level_scale",
+                       avatar.field.encoding.per_level_scale),
+    FSKIN_AVATAR_FIELD("/model/field/network/hidden_dim", "hidden_dim", avatar.field.hidden_dim),
+    FSKIN_AVATAR_FIELD("/model/field/network/hidden_layers", "hidden_layers", avatar.field.hidden_layers),
+    FSKIN_AVATAR_FIELD("/model/skinning/grid_resolution", "skinning_grid_resolution", avatar.skinning_grid_resolution),
+    FSKIN_AVATAR_FIELD("/model/deformer/start_bones", "start_bones", avatar.start_bones),
+    FSKIN_AVATAR_FIELD("/model/occupancy_grid/canonical_resolution", "canonical_grid_resolution",
+                       avatar.canonical_grid_resolution),
+    FSKIN_AVATAR_FIELD("/model/occupancy_grid/posed_resolution", "posed_grid_resolution", avatar.posed_grid_resolution),
+    FSKIN_AVATAR_FIELD("/model/occupancy_grid/opacity", "occupancy_opacity", avatar.occupancy_opacity),
+    FSKIN_AVATAR_FIELD("/model/occupancy_grid/every", "occupancy_every", occupancy_every),
+    FSKIN_AVATAR_FIELD("/model/occupancy_grid/warmup", "occupancy_warmup", occupancy_warmup),
+    FSKIN_AVATAR_FIELD("/model/rendering/samples_per_diagonal", "samples_per_diagonal", avatar.samples_per_diagonal),
+    FSKIN_AVATAR_FIELD("/losses/colour/huber_delta", "huber_delta", huber_delta),
+    FSKIN_AVATAR_FIELD("/losses/opacity/weight", "opacity_weight", opacity_weight),
+    FSKIN_AVATAR_FIELD("/optimizer/learning_rate", "learning_rate", learning_rate),
+    FSKIN_AVATAR_FIELD("/schedule/decay_fraction", "decay_fraction", decay_fraction),
+    FSKIN_AVATAR_FIELD("/schedule/decay_factor", "decay_factor", decay_factor),
+    FSKIN_AVATAR_FIELD("/data/path", "data_dir", data_dir),
+    FSKIN_AVATAR_FIELD("/data/rays_per_step", "rays_per_step", rays_per_step),
+    FSKIN_AVATAR_FIELD("/data/images_per_step", "images_per_step", images_per_step),
+    FSKIN_AVATAR_FIELD("/data/mask_box_fraction", "mask_box_fraction", mask_box_fraction),
+    FSKIN_AVATAR_FIELD("/data/background", "background", background),
+    FSKIN_AVATAR_FIELD("/run/checkpoint_every", "checkpoint_every", checkpoint_every),
+    FSKIN_AVATAR_FIELD("/run/log_every", "log_every", log_every),
+    FSKIN_AVATAR_FIELD("/seed", "seed", seed),
+    FSKIN_AVATAR_FIELD("/steps", "steps", steps),
+};
+#undef FSKIN_AVATAR_FIELD
+
+// A flat key's first name ("encoding" of "encoding/levels").
+std::string flat_head(const char* flat) {
+  const std::string key(flat);
+  return key.substr(0, key.find('/'));
+}
 
 // A document of the flat layout holds a key only that layout has (seed and
 // steps are in both).
 bool is_flat(const json& document) {
   for (const auto& [key, value] : document.items()) {
     if (key == "seed" || key == "steps") continue;
-    for (const auto& [flat_key, nested_path] : kFlatKeys)
-      if (key == flat_key) return true;
+    for (const auto& field : kFields)
+      if (key == flat_head(field.flat)) return true;
   }
   return false;
 }
 
 json nested_from_flat(const json& flat, const std::string& context) {
-  json nested = json::object();
   for (const auto& [key, value] : flat.items()) {
-    const char* path = nullptr;
-    for (const auto& [flat_key, nested_path] : kFlatKeys)
-      if (key == flat_key) path = nested_path;
-    FSKIN_CHECK(path != nullptr, "{}: {}: unknown key", context, key);
-    nested[json::json_pointer(path)] = value;
+    const bool known = std::any_of(std::begin(kFields), std::end(kFields),
+                                   [&key = key](const Field& field) { return key == flat_head(field.flat); });
+    FSKIN_CHECK(known, "{}: {}: unknown key", context, key);
+  }
+  json nested = json::object();
+  for (const auto& field : kFields) {
+    const auto flat_pointer = json::json_pointer("/" + std::string(field.flat));
+    if (flat.contains(flat_pointer)) nested[json::json_pointer(field.path)] = flat.at(flat_pointer);
   }
   return nested;
 }
 
 }  // namespace
 
-json avatar_config_document(const AvatarTrainOptions& o) {
-  const auto& a = o.avatar;
-  const auto& e = a.field.encoding;
-  json d = {
-      {"model",
-       {{"type", "fast-snarf-avatar"},
-        {"field",
-         {{"encoding",
-           {{"type", "hash"},
-            {"levels", e.levels},
-            {"features_per_level", e.features_per_level},
-            {"log2_table_size", e.log2_table_size},
-            {"base_resolution", e.base_resolution},
-            {"per_level_scale", e.per_level_scale}}},
-          {"network", {{"hidden_dim", a.field.hidden_dim}, {"hidden_layers", a.field.hidden_layers}}}}},
-        {"skinning", {{"grid_resolution", a.skinning_grid_resolution}}},
-        {"deformer", {{"start_bones", a.start_bones}}},
-        {"occupancy_grid",
-         {{"canonical_resolution", a.canonical_grid_resolution},
-          {"posed_resolution", a.posed_grid_resolution},
-          {"opacity", a.occupancy_opacity},
-          {"every", o.occupancy_every},
-          {"warmup", o.occupancy_warmup}}},
-        {"rendering", {{"samples_per_diagonal", a.samples_per_diagonal}}}}},
-      {"losses", {{"colour", {{"huber_delta", o.huber_delta}}}, {"opacity", {{"weight", o.opacity_weight}}}}},
-      {"optimizer", {{"type", "adam"}, {"learning_rate", o.learning_rate}}},
-      {"schedule", {{"type", "cosine-decay"}, {"decay_fraction", o.decay_fraction}, {"decay_factor", o.decay_factor}}},
-      {"data",
-       {{"path", o.data_dir},
-        {"rays_per_step", o.rays_per_step},
-        {"images_per_step", o.images_per_step},
-        {"mask_box_fraction", o.mask_box_fraction},
-        {"background", o.background}}},
-      {"run", {{"checkpoint_every", o.checkpoint_every}, {"log_every", o.log_every}}},
-      {"seed", o.seed},
-      {"steps", o.steps},
-  };
+json avatar_config_document(const AvatarTrainOptions& options) {
+  json d = json::object();
+  for (const auto& [path, only] : kFixedTypes) d[json::json_pointer(path)] = only;
+  for (const auto& field : kFields) d[json::json_pointer(field.path)] = field.read(options);
   return d;
 }
 
@@ -125,50 +125,16 @@ AvatarTrainOptions avatar_options_from_document(const json& document, const Avat
   json d = avatar_config_document(base);
   overlay_document(d, given, context);
   for (const auto& [path, only] : kFixedTypes) {
-    const auto pointer = json::json_pointer(path);
     std::string dotted = std::string(path).substr(1);
     std::replace(dotted.begin(), dotted.end(), '/', '.');
-    FSKIN_CHECK(d.at(pointer) == only, "{}: {}: must be \"{}\" (the only kind so far), got {}", context, dotted, only,
-                d.at(pointer).dump());
+    FSKIN_CHECK(d.at(json::json_pointer(path)) == only, "{}: {}: must be \"{}\" (the only kind so far), got {}",
+                context, dotted, only, d.at(json::json_pointer(path)).dump());
   }
+  const auto& seed = d.at("seed");
+  FSKIN_CHECK(seed.is_number_unsigned() || seed.get<int64_t>() >= 0, "{}: seed: must be >= 0, got {}", context,
+              seed.dump());
   AvatarTrainOptions o = base;
-  auto& a = o.avatar;
-  auto& e = a.field.encoding;
-  const auto& model = d.at("model");
-  const auto& enc = model.at("field").at("encoding");
-  e.levels = enc.at("levels");
-  e.features_per_level = enc.at("features_per_level");
-  e.log2_table_size = enc.at("log2_table_size");
-  e.base_resolution = enc.at("base_resolution");
-  e.per_level_scale = enc.at("per_level_scale");
-  a.field.hidden_dim = model.at("field").at("network").at("hidden_dim");
-  a.field.hidden_layers = model.at("field").at("network").at("hidden_layers");
-  a.skinning_grid_resolution = model.at("skinning").at("grid_resolution");
-  a.start_bones = model.at("deformer").at("start_bones");
-  const auto& grid = model.at("occupancy_grid");
-  a.canonical_grid_resolution = grid.at("canonical_resolution");
-  a.posed_grid_resolution = grid.at("posed_resolution");
-  a.occupancy_opacity = grid.at("opacity");
-  o.occupancy_every = grid.at("every");
-  o.occupancy_warmup = grid.at("warmup");
-  a.samples_per_diagonal = model.at("rendering").at("samples_per_diagonal");
-  o.huber_delta = d.at("losses").at("colour").at("huber_delta");
-  o.opacity_weight = d.at("losses").at("opacity").at("weight");
-  o.learning_rate = d.at("optimizer").at("learning_rate");
-  o.decay_fraction = d.at("schedule").at("decay_fraction");
-  o.decay_factor = d.at("schedule").at("decay_factor");
-  const auto& data = d.at("data");
-  o.data_dir = data.at("path");
-  o.rays_per_step = data.at("rays_per_step");
-  o.images_per_step = data.at("images_per_step");
-  o.mask_box_fraction = data.at("mask_box_fraction");
-  o.background = data.at("background");
-  o.checkpoint_every = d.at("run").at("checkpoint_every");
-  o.log_every = d.at("run").at("log_every");
-  const bool negative_seed = !d.at("seed").is_number_unsigned() && d.at("seed").get<int64_t>() < 0;
-  FSKIN_CHECK(!negative_seed, "{}: seed: must be >= 0, got {}", context, d.at("seed").dump());
-  o.seed = d.at("seed");
-  o.steps = d.at("steps");
+  for (const auto& field : kFields) field.write(o, d.at(json::json_pointer(field.path)));
   try {
     o.validate();
   } catch (const Error& error) {
