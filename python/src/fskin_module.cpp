@@ -596,7 +596,7 @@ PYBIND11_MODULE(_fskin, m) {
       },
       py::arg("sigma"), py::arg("rgb"), py::arg("delta"), py::arg("background"),
       "Volume-rendering compositing (fused op): sigma [R, S], rgb [R, S, 3], delta [R, S], background [R, 3] -> "
-      "(color [R, 3], opacity [R]); differentiable in sigma and rgb");
+      "(color [R, 3], opacity [R]); differentiable in all four inputs");
   m.def(
       "build_image_dataset",
       [](const std::string& model_path, const torch::Tensor& poses, const std::string& out,

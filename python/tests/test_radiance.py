@@ -37,6 +37,20 @@ def test_composite_rays_matches_the_closed_form():
     assert torch.autograd.gradcheck(lambda s, c: fskin.composite_rays(s, c, delta, background)[0], (sigma, rgb))
 
 
+def test_composite_rays_has_a_gradient_for_every_input():
+    torch.manual_seed(0)
+    sigma = (torch.rand(3, 5, dtype=torch.float64) * 4).requires_grad_()
+    rgb = torch.rand(3, 5, 3, dtype=torch.float64, requires_grad=True)
+    delta = (torch.rand(3, 5, dtype=torch.float64) * 0.2 + 0.01).requires_grad_()
+    background = torch.rand(3, 3, dtype=torch.float64, requires_grad=True)
+
+    def both(s, c, d, b):
+        color, opacity = fskin.composite_rays(s, c, d, b)
+        return color, opacity
+
+    assert torch.autograd.gradcheck(both, (sigma, rgb, delta, background))
+
+
 def test_image_dataset_training_and_evaluation(tmp_path):
     model = str(tmp_path / "model.npz")
     fskin.humanoid(resolution=40).save(model)

@@ -17,8 +17,8 @@ namespace fskin {
 
 // sigma [R, S] (>= 0), rgb [R, S, 3], delta [R, S] (>= 0), background [R, 3];
 // one dtype (float32 / float64) and device -> (color [R, 3], opacity [R]).
-// Gradients reach sigma and rgb (background: none, it is an input such as a
-// random colour per ray).
+// Differentiable in all four inputs (each gradient is computed only when its
+// input requires one).
 std::tuple<torch::Tensor, torch::Tensor> composite_rays(const torch::Tensor& sigma, const torch::Tensor& rgb,
                                                         const torch::Tensor& delta, const torch::Tensor& background);
 

@@ -70,22 +70,28 @@ class CompositeFunction : public torch::autograd::Function<CompositeFunction> {
     const auto &s = saved[0], &c = saved[1], &d = saved[2], &b = saved[3];
     auto grad_color = grad_outputs[0].defined() ? grad_outputs[0].contiguous() : torch::zeros({s.size(0), 3}, s.options());
     const auto grad_opacity = grad_outputs[1].defined() ? grad_outputs[1].contiguous() : torch::Tensor();
-    torch::Tensor grad_sigma, grad_rgb;
+    torch::Tensor grad_sigma, grad_rgb, grad_delta, grad_background;
     if (ctx->needs_input_grad(0)) grad_sigma = torch::empty_like(s);
     if (ctx->needs_input_grad(1)) grad_rgb = torch::empty_like(c);
-    if (s.size(0) > 0 && (grad_sigma.defined() || grad_rgb.defined())) {
+    if (ctx->needs_input_grad(2)) grad_delta = torch::empty_like(d);
+    if (ctx->needs_input_grad(3)) grad_background = torch::empty_like(b);
+    if (s.size(0) > 0 && (grad_sigma.defined() || grad_rgb.defined() || grad_delta.defined() ||
+                          grad_background.defined())) {
       AT_DISPATCH_FLOATING_TYPES(s.scalar_type(), "composite_rays backward", [&] {
         auto a = launch_for<scalar_t>(s, c, d, b);
         a.grad_color = grad_color.data_ptr<scalar_t>();
         a.grad_opacity = grad_opacity.defined() ? grad_opacity.data_ptr<scalar_t>() : nullptr;
-        a.grad_sigma = grad_sigma.defined() ? grad_sigma.data_ptr<scalar_t>() : nullptr;
-        a.grad_rgb = grad_rgb.defined() ? grad_rgb.data_ptr<scalar_t>() : nullptr;
+        const auto pointer = [](torch::Tensor& t) { return t.defined() ? t.data_ptr<scalar_t>() : nullptr; };
+        a.grad_sigma = pointer(grad_sigma);
+        a.grad_rgb = pointer(grad_rgb);
+        a.grad_delta = pointer(grad_delta);
+        a.grad_background = pointer(grad_background);
         run_on_device(
             s, "composite_rays backward", [&] { ray_compositing::composite_rays_cpu(a, true); },
             [&](void* stream) { ray_compositing::composite_rays_cuda(a, true, stream); });
       });
     }
-    return {grad_sigma, grad_rgb, torch::Tensor(), torch::Tensor()};
+    return {grad_sigma, grad_rgb, grad_delta, grad_background};
   }
 };
 
@@ -95,7 +101,7 @@ std::tuple<torch::Tensor, torch::Tensor> composite_rays(const torch::Tensor& sig
                                                         const torch::Tensor& delta, const torch::Tensor& background) {
   check_inputs(sigma, rgb, delta, background);
   expect_finite_on_cpu(delta, "composite_rays: delta");
-  const auto out = CompositeFunction::apply(sigma, rgb, delta.detach(), background.detach());
+  const auto out = CompositeFunction::apply(sigma, rgb, delta, background);
   return {out[0], out[1]};
 }
 

@@ -20,8 +20,10 @@ struct CompositeLaunch {
   T* opacity;           // [R]
   const T* grad_color;    // backward: [R, 3]
   const T* grad_opacity;  // backward: [R]
-  T* grad_sigma;          // backward: [R, S]
-  T* grad_rgb;            // backward: [R, S, 3]
+  T* grad_sigma;          // backward: [R, S], or null when not needed
+  T* grad_rgb;            // backward: [R, S, 3], or null
+  T* grad_delta;          // backward: [R, S], or null
+  T* grad_background;     // backward: [R, 3], or null
 };
 
 template <typename T>
@@ -57,8 +59,10 @@ FSKIN_HOST_DEVICE void composite_ray(const CompositeLaunch<T>& a, int64_t r) {
 }
 
 // dL/dc_s = w_s gC;
-// dL/dsigma_s = delta_s [T_{s+1} (c_s . gC) - (C - C_{<=s}) . gC - T_final (bg . gC) + T_final gA],
-// with C the ray's colour without background and C_{<=s} its prefix sum.
+// dL/dsigma_s = delta_s X_s, dL/ddelta_s = sigma_s X_s (alpha depends on their product), with
+// X_s = T_{s+1} (c_s . gC) - (C - C_{<=s}) . gC - T_final (bg . gC) + T_final gA,
+// C the ray's colour without background and C_{<=s} its prefix sum;
+// dL/dbg = T_final gC.
 template <typename T>
 FSKIN_HOST_DEVICE void composite_ray_backward(const CompositeLaunch<T>& a, int64_t r) {
   T total[3];
@@ -67,6 +71,9 @@ FSKIN_HOST_DEVICE void composite_ray_backward(const CompositeLaunch<T>& a, int64
   const T ga = a.grad_opacity ? a.grad_opacity[r] : T(0);
   const T* bg = a.background + 3 * r;
   const T tail = final_transmittance * (ga - (bg[0] * gc[0] + bg[1] * gc[1] + bg[2] * gc[2]));
+  if (a.grad_background) {
+    for (int k = 0; k < 3; ++k) a.grad_background[3 * r + k] = final_transmittance * gc[k];
+  }
   T transmittance = T(1);
   T prefix[3] = {T(0), T(0), T(0)};
   for (int64_t s = 0; s < a.samples; ++s) {
@@ -83,7 +90,9 @@ FSKIN_HOST_DEVICE void composite_ray_backward(const CompositeLaunch<T>& a, int64
       if (a.grad_rgb) a.grad_rgb[3 * i + k] = w * gc[k];
     }
     transmittance *= keep;
-    if (a.grad_sigma) a.grad_sigma[i] = a.delta[i] * (transmittance * own - after + tail);
+    const T x = transmittance * own - after + tail;
+    if (a.grad_sigma) a.grad_sigma[i] = a.delta[i] * x;
+    if (a.grad_delta) a.grad_delta[i] = a.sigma[i] * x;
   }
 }
 
