@@ -52,3 +52,23 @@ if recommended_openblas_core() is not None:
         f"fskin: OpenBLAS runs its generic SSE3 kernels ({openblas_core()}) on this CPU; start Python with "
         f"OPENBLAS_CORETYPE={recommended_openblas_core()} for the several times faster kernels the fskin CLI uses",
         RuntimeWarning, stacklevel=2)
+
+# Debian's torch (libgomp) can start with one intra-op thread on a machine
+# with more cores, and fskin's ops (at::parallel_for) then run on one core
+# where the CLI uses them all. Unless the user chose a count in the
+# environment (OMP_NUM_THREADS), use the cores this process may run on;
+# torch.set_num_threads(n) after the import still decides.
+def _default_threads() -> None:
+    import os
+
+    if "OMP_NUM_THREADS" in os.environ:
+        return
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    if torch.get_num_threads() < cores:
+        torch.set_num_threads(cores)
+
+
+_default_threads()

@@ -389,3 +389,19 @@ def test_train_runs_as_ranks_launched_like_torchrun(tmp_path):
     assert len(lines) == 10 and all(line["ranks"] == 2 for line in lines)
     assert (tmp_path / "two" / "config.json").exists() and any(
         name.startswith("checkpoint") for name in os.listdir(tmp_path / "two"))
+
+
+def test_voxel_box_refuses_a_grid_no_machine_holds():
+    with pytest.raises(fskin.Error, match="longest_voxels"):
+        fskin.VoxelBox.fit(torch.rand(10, 3), 100000)
+
+
+def test_import_uses_every_core_unless_the_environment_says_otherwise():
+    cores = len(os.sched_getaffinity(0))
+    probe = "import fskin, torch; print(torch.get_num_threads())"
+    environment = {k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"}
+    out = subprocess.run(["/usr/bin/python3", "-c", probe], env=environment, capture_output=True, text=True, check=True)
+    assert int(out.stdout.split()[-1]) == cores
+    environment["OMP_NUM_THREADS"] = "1"
+    out = subprocess.run(["/usr/bin/python3", "-c", probe], env=environment, capture_output=True, text=True, check=True)
+    assert int(out.stdout.split()[-1]) == 1

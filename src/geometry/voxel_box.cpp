@@ -40,9 +40,10 @@ VoxelBox VoxelBox::fit(const torch::Tensor& points, int64_t longest_voxels, doub
   expect_shape(points, {-1, 3}, "VoxelBox::fit: points");
   FSKIN_CHECK(points.size(0) > 0, "VoxelBox::fit: points is empty");
   expect_finite(points, "VoxelBox::fit: points");
-  FSKIN_CHECK(longest_voxels >= 2 && min_voxels >= 2 && min_voxels <= longest_voxels,
-              "VoxelBox::fit: longest_voxels ({}) and min_voxels ({}) must be >= 2, min <= longest",
-              longest_voxels, min_voxels);
+  FSKIN_CHECK(longest_voxels >= 2 && min_voxels >= 2 && min_voxels <= longest_voxels &&
+                  longest_voxels <= kMaxGridVoxels,
+              "VoxelBox::fit: longest_voxels ({}) and min_voxels ({}) must be from 2 to {}, min <= longest",
+              longest_voxels, min_voxels, kMaxGridVoxels);
   FSKIN_CHECK(padding >= 0 && std::isfinite(padding), "VoxelBox::fit: padding {} must be >= 0", padding);
   const auto p = points.detach().to(torch::kCPU, torch::kFloat64);
   const auto lo = std::get<0>(p.min(0)), hi = std::get<0>(p.max(0));
@@ -82,6 +83,10 @@ void VoxelBox::validate(const std::string& what) const {
   FSKIN_CHECK(shape.depth >= 2 && shape.height >= 2 && shape.width >= 2,
               "{}: grid shape (D, H, W) = ({}, {}, {}) must be >= 2 along every axis", what,
               shape.depth, shape.height, shape.width);
+  // A grid holds a value per voxel and bone: 1024^3 float weights of one bone are already 4 GiB.
+  FSKIN_CHECK(shape.depth <= kMaxGridVoxels && shape.height <= kMaxGridVoxels && shape.width <= kMaxGridVoxels,
+              "{}: grid shape (D, H, W) = ({}, {}, {}) must be at most {} along every axis", what, shape.depth,
+              shape.height, shape.width, kMaxGridVoxels);
   for (int a = 0; a < 3; ++a) {
     FSKIN_CHECK(std::isfinite(offset[a]) && std::isfinite(scale[a]) && scale[a] > 0,
                 "{}: grid box offset/scale along axis {} must be finite with scale > 0 (got {}, {})",

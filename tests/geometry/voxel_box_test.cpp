@@ -1,6 +1,8 @@
 #include "fskin/geometry/voxel_box.h"
 
 #include <gtest/gtest.h>
+
+#include "test_util.h"
 #include <torch/torch.h>
 
 #include "fskin/core/error.h"
@@ -59,6 +61,11 @@ TEST(VoxelBoxFit, BadInputIsAnError) {
   EXPECT_THROW(VoxelBox::fit(torch::zeros({2, 3}), 32), Error);
   EXPECT_THROW(VoxelBox::fit(torch::zeros({0, 3}), 32), Error);
   EXPECT_THROW(VoxelBox::fit(box_corners(1, 1, 1), 1), Error);
+  // More voxels than any grid may hold: an error up front, not a petabyte allocation later.
+  testing::expect_error([] { VoxelBox::fit(box_corners(1, 1, 1), 100000); }, {"longest_voxels (100000)", "1024"});
+  EXPECT_NO_THROW(VoxelBox::fit(box_corners(1, 1, 1), 1024));
+  testing::expect_error([] { VoxelBox::around(box_corners(1, 1, 1), GridShape{8, 2048, 8}); },
+                        {"2048", "at most 1024"});
 }
 
 TEST(CharacterSize, IsTheLongestSide) {

@@ -19,6 +19,9 @@ struct GridShape {
   int64_t voxels() const { return depth * height * width; }
 };
 
+// The most voxels a grid may have along one axis (the training config's limit too).
+constexpr int64_t kMaxGridVoxels = 1024;
+
 struct VoxelBox {
   std::array<double, 3> offset{0.0, 0.0, 0.0};  // (x, y, z), added before scaling
   std::array<double, 3> scale{1.0, 1.0, 1.0};   // (x, y, z)
