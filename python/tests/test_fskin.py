@@ -145,13 +145,19 @@ def test_roots_gradcheck_with_respect_to_a_learned_grid_float64():
     modes = torch.stack([torch.sin(centres[..., 0] * k) for k in (1.0, 2.0, 3.0)], -1)  # [D, H, W, 3]
 
     def roots_of_grid(a):
-        deformer.grid_weights = grid + (modes @ a)  # [D, H, W, 2], with a's graph
+        deformer.grid_weights = grid * torch.exp(modes @ a)  # [D, H, W, 2], >= 0, with a's graph
         return deformer.forward(xd, bones)[0] * mask
 
     a = (torch.randn(3, 2, dtype=torch.float64) * 0.01).requires_grad_(True)
     assert torch.autograd.gradcheck(roots_of_grid, (a,), eps=1e-6, atol=1e-5)
     deformer.grid_weights = grid  # a fixed grid again: no graph, no gradient
     assert not deformer.forward(xd, bones)[0].requires_grad
+    negative = grid.clone()
+    negative[1, 2, 3, 1] = -0.5
+    with pytest.raises(fskin.Error, match=r"weights must be >= 0.*-0.5 at voxel \(d, h, w\) = \(1, 2, 3\), bone 1"):
+        deformer.grid_weights = negative
+    with pytest.raises(fskin.Error, match="weights must be >= 0"):
+        fskin.FastSnarfDeformer(negative, box)
 
 
 def test_grid_skinning_gradcheck_float64():

@@ -6,6 +6,7 @@
 #include "fskin/fields/mlp_skinning_field.h"
 #include "fskin/fields/preset_skinning_field.h"
 #include "fskin/fields/voxel_skinning_field.h"
+#include "test_util.h"
 
 namespace fskin {
 namespace {
@@ -101,6 +102,10 @@ TEST(SkinningFields, FrozenGridRejectsBadGrids) {
   auto bad = torch::ones({4, 4, 4, 2});
   bad[1][1][1][0] = NAN;
   EXPECT_THROW(FrozenSkinningField(bad, unit_box(GridShape{4, 4, 4})), Error);
+  auto negative = torch::full({4, 4, 4, 2}, 0.5);
+  negative[3][2][1][1] = -0.25;
+  testing::expect_error([&] { FrozenSkinningField(negative, unit_box(GridShape{4, 4, 4})); },
+                        {"must be >= 0", "-0.25", "(3, 2, 1), bone 1"});
 }
 
 }  // namespace
