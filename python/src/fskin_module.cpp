@@ -65,8 +65,21 @@ fskin::StartBones parse_start_bones(const py::object& value) {
     fskin::fail("start_bones: '{}' is not 'all', an int (automatic: that many starts per point) or a list of bones",
                 text);
   }
-  if (py::isinstance<py::int_>(value)) return fskin::StartBones::automatic(value.cast<int64_t>());
-  return fskin::StartBones::subset(value.cast<std::vector<int64_t>>());
+  const auto is_whole_number = [](const py::handle& v) {
+    return py::isinstance<py::int_>(v) && !py::isinstance<py::bool_>(v);
+  };
+  const auto shown = [](const py::handle& v) { return py::repr(v).cast<std::string>(); };
+  if (is_whole_number(value)) return fskin::StartBones::automatic(value.cast<int64_t>());
+  FSKIN_CHECK(py::isinstance<py::sequence>(value) && !py::isinstance<py::bool_>(value),
+              "start_bones: {} is not 'all', an int (automatic: that many starts per point) or a list of bones",
+              shown(value));
+  std::vector<int64_t> bones;
+  for (const auto& bone : value.cast<py::sequence>()) {
+    FSKIN_CHECK(is_whole_number(bone), "start_bones: the list {} holds {}, not a bone index (an int)", shown(value),
+                shown(bone));
+    bones.push_back(bone.cast<int64_t>());
+  }
+  return fskin::StartBones::subset(bones);
 }
 
 // The search options both deformers take from Python: the paper's settings
@@ -536,6 +549,11 @@ PYBIND11_MODULE(_fskin, m) {
       "write_mesh",
       [](const std::string& path, const torch::Tensor& vertices, const torch::Tensor& faces,
          const std::optional<torch::Tensor>& colors) {
+        // Casts below would silently drop imaginary parts or round fractional indices.
+        FSKIN_CHECK(vertices.is_floating_point(), "{}: vertices must be real floating point, got {}", path,
+                    c10::toString(vertices.scalar_type()));
+        FSKIN_CHECK(!faces.is_floating_point() && !faces.is_complex() && faces.scalar_type() != torch::kBool,
+                    "{}: faces must be integer vertex indices, got {}", path, c10::toString(faces.scalar_type()));
         fskin::Mesh mesh{vertices.detach().to(torch::kCPU, torch::kFloat32).contiguous(),
                          faces.to(torch::kCPU, torch::kInt64).contiguous(),
                          colors ? colors->to(torch::kCPU, torch::kUInt8).contiguous() : torch::Tensor()};

@@ -411,3 +411,27 @@ def test_import_uses_every_core_unless_the_environment_says_otherwise():
     environment["OMP_NUM_THREADS"] = "1"
     out = subprocess.run(["/usr/bin/python3", "-c", probe], env=environment, capture_output=True, text=True, check=True)
     assert int(out.stdout.split()[-1]) == 1
+
+
+@pytest.mark.parametrize("start_bones, message", [
+    (9.0, "9.0 is not 'all', an int"),
+    (True, "True is not 'all', an int"),
+    ([0, 1.5], r"holds 1.5, not a bone index"),
+    ("x", "'x' is not 'all'"),
+])
+def test_start_bones_of_the_wrong_kind_are_named(start_bones, message):
+    grid = torch.full((4, 4, 4, 2), 0.5)
+    box = fskin.VoxelBox.fit(torch.rand(10, 3), 4)
+    with pytest.raises(fskin.Error, match=message):
+        fskin.FastSnarfDeformer(grid, box, start_bones=start_bones)
+
+
+def test_write_mesh_refuses_tensors_it_would_have_to_mangle(tmp_path):
+    vertices = torch.rand(4, 3)
+    faces = torch.tensor([[0, 1, 2], [0, 2, 3]])
+    with pytest.raises(fskin.Error, match="vertices must be real floating point"):
+        fskin.write_mesh(str(tmp_path / "m.ply"), vertices.to(torch.complex64), faces)
+    with pytest.raises(fskin.Error, match="faces must be integer vertex indices"):
+        fskin.write_mesh(str(tmp_path / "m.ply"), vertices, faces.float())
+    fskin.write_mesh(str(tmp_path / "m.ply"), vertices.double(), faces.int())
+    assert fskin.read_mesh(str(tmp_path / "m.ply"))[0].shape == (4, 3)
