@@ -435,3 +435,22 @@ def test_write_mesh_refuses_tensors_it_would_have_to_mangle(tmp_path):
         fskin.write_mesh(str(tmp_path / "m.ply"), vertices, faces.float())
     fskin.write_mesh(str(tmp_path / "m.ply"), vertices.double(), faces.int())
     assert fskin.read_mesh(str(tmp_path / "m.ply"))[0].shape == (4, 3)
+
+
+def test_half_precision_and_autocast_get_fskin_answers():
+    body = fskin.humanoid(resolution=32)
+    grid = torch.full((4, 4, 4, body.num_joints), 1.0 / body.num_joints)
+    deformer = fskin.FastSnarfDeformer(grid, fskin.VoxelBox.fit(body.v_template, 4))
+    _, _, bones = body.forward(torch.zeros(1, body.num_joints, 3))
+    x = body.v_template.float()[None, :20]
+    with pytest.raises(fskin.Error, match="points must be float32 or float64.*Half"):
+        deformer.forward(x.half(), bones)
+    with pytest.raises(fskin.Error, match="points must be float32 or float64.*Half"):
+        deformer.deform(x.half(), bones)
+    roots, valid = deformer.forward(x, bones)
+    with torch.autocast("cpu", dtype=torch.bfloat16):  # the search keeps its inputs' precision
+        roots_autocast, valid_autocast = deformer.forward(x, bones)
+        posed = deformer.deform(x, bones)
+    assert roots_autocast.dtype == torch.float32 and posed.dtype == torch.float32
+    assert torch.equal(valid, valid_autocast)
+    assert torch.allclose(roots, roots_autocast)

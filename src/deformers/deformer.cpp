@@ -3,6 +3,8 @@
 #include <cmath>
 #include <functional>
 
+#include <c10/core/impl/LocalDispatchKeySet.h>
+
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "fskin/ops/filter_duplicate_roots.h"
@@ -19,6 +21,21 @@ struct PreparedPose {
   std::function<void()> release;
   ~PreparedPose() { release(); }
 };
+
+// The search and the blend run in single or double precision: Broyden's
+// updates and the inverse bones are not stable in half precision.
+void expect_search_precision(const torch::Tensor& points, const std::string& name) {
+  const auto dtype = points.scalar_type();
+  FSKIN_CHECK(dtype == torch::kFloat32 || dtype == torch::kFloat64,
+              "{}: points must be float32 or float64 (the search is not stable in lower precision; cast with "
+              ".float()), got {}",
+              name, c10::toString(dtype));
+}
+
+// Inside torch.autocast the blend's matrix products would drop to half /
+// bfloat16 while the search's inputs stay float32: the deformer runs in its
+// inputs' precision whatever the caller's autocast region says.
+using NoAutocast = c10::impl::ExcludeDispatchKeyGuard;
 
 }  // namespace
 
@@ -58,6 +75,8 @@ DeformerOutput Deformer::forward(const torch::Tensor& x_posed, const torch::Tens
   expect_shape(bones, {x_posed.size(0), field().num_bones(), 4, 4}, "Deformer::forward: bones");
   expect_floating(x_posed, "Deformer::forward: x_posed");
   expect_floating(bones, "Deformer::forward: bones");
+  expect_search_precision(x_posed, "Deformer::forward: x_posed");
+  const NoAutocast no_autocast(c10::autocast_dispatch_keyset);
   FSKIN_CHECK(bones.device() == x_posed.device(), "Deformer::forward: x_posed and bones on different devices");
   const int64_t B = x_posed.size(0), N = x_posed.size(1), J = bones.size(1);
   const bool cuda = x_posed.is_cuda();
@@ -219,6 +238,8 @@ torch::Tensor Deformer::deform(const torch::Tensor& x_canonical, const torch::Te
   expect_shape(x_canonical, {-1, -1, 3}, "Deformer::deform: x_canonical");
   expect_shape(bones, {x_canonical.size(0), field().num_bones(), 4, 4}, "Deformer::deform: bones");
   expect_finite(bones, "Deformer::deform: bones");
+  expect_search_precision(x_canonical, "Deformer::deform: x_canonical");
+  const NoAutocast no_autocast(c10::autocast_dispatch_keyset);
   const auto bones_x = bones.to(x_canonical.dtype());
   const int64_t N = x_canonical.size(1);
   if (!torch::GradMode::is_enabled()) {
