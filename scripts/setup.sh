@@ -13,6 +13,8 @@ PACKAGES=(
   libzip-dev zlib1g-dev
   libembree-dev
   libstb-dev libtinygltf-dev libtinyobjloader-dev
+  # k-d tree for nearest-vertex queries (geometry/nearest_vertex.h).
+  libnanoflann-dev
   # FBX / Collada import; the test models are BSD-licensed rigs the tests read.
   libassimp-dev assimp-testmodels
   # torch.distributed's Gloo backend (data-parallel training across processes).

@@ -32,6 +32,7 @@ from ._fskin import (  # noqa: F401
     hash_encoding,
     hash_encoding_table,
     humanoid,
+    nearest_vertices,
     ood_poses,
     quadruped,
     read_mesh,

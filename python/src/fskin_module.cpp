@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <optional>
 
+#include "fskin/geometry/nearest_vertex.h"
 #include "fskin/body/body_model.h"
 #include "fskin/body/character.h"
 #include "fskin/body/quadruped.h"
@@ -562,6 +563,15 @@ PYBIND11_MODULE(_fskin, m) {
       },
       py::arg("path"), py::arg("vertices"), py::arg("faces"), py::arg("colors") = py::none(),
       "Write a mesh (vertices [V, 3], faces [F, 3], colours [V, 3] uint8) as .ply or .obj");
+  m.def(
+      "nearest_vertices",
+      [](const torch::Tensor& points, const torch::Tensor& vertices) {
+        const auto nearest = fskin::nearest_vertices(points, vertices);
+        return py::make_tuple(nearest.index, nearest.distance);
+      },
+      py::arg("points"), py::arg("vertices"),
+      "The nearest vertex of each point (k-d tree): points [Q, 3], vertices [V, 3] -> (index [Q] int64, "
+      "distance [Q] float32)");
   m.def(
       "read_mesh",
       [](const std::string& path) {

@@ -6,6 +6,7 @@
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
+#include "fskin/geometry/nearest_vertex.h"
 
 namespace fskin {
 
@@ -21,18 +22,8 @@ std::shared_ptr<FrozenSkinningField> diffuse_weights_to_grid(const torch::Tensor
   const auto v = vertices.detach().to(torch::kFloat32);
   const auto w = weights.detach().to(torch::kFloat32);
   const auto centres = box.voxel_centres(torch::kFloat32).reshape({-1, 3});
-  // Nearest vertex per voxel, in chunks so the [chunk, V] distance matrix
-  // stays small (~40 MB for a 10k-vertex body).
-  const int64_t chunk = 1024;
-  auto nearest = torch::empty({centres.size(0)}, torch::kInt64);
-  auto distance = torch::empty({centres.size(0)}, torch::kFloat32);
-  for (int64_t s = 0; s < centres.size(0); s += chunk) {
-    const int64_t n = std::min(chunk, centres.size(0) - s);
-    const auto d = torch::cdist(centres.narrow(0, s, n), v);
-    const auto [dmin, idx] = d.min(1);
-    nearest.narrow(0, s, n).copy_(idx);
-    distance.narrow(0, s, n).copy_(dmin);
-  }
+  // Nearest vertex per voxel.
+  const auto [nearest, distance] = nearest_vertices(centres, v);
   const GridShape& shape = box.shape;
   auto grid = w.index_select(0, nearest).reshape({shape.depth, shape.height, shape.width, w.size(1)});
   // Voxel diagonal in canonical units (the smallest voxel side bounds the band).

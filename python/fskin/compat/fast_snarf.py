@@ -23,7 +23,7 @@ tree only) is not provided.
 """
 import torch
 
-from .. import FastSnarfDeformer, VoxelBox, character_size, diffuse_weights_to_grid
+from .. import FastSnarfDeformer, VoxelBox, character_size, diffuse_weights_to_grid, nearest_vertices
 
 # The reference implementation's 9 start bones (SMPL: pelvis, hips, knees,
 # shoulders, elbows); for any other skeleton every bone starts a search.
@@ -36,13 +36,10 @@ def _option(opt, name, default):
     return getattr(opt, name, default)
 
 
-def _nearest_vertex_weights(points, verts, weights, chunk=65536):
-    """Skinning weights of the nearest template vertex (the reference's 'preset')."""
-    out = []
-    for start in range(0, points.shape[0], chunk):
-        nearest = torch.cdist(points[start:start + chunk], verts).argmin(1)
-        out.append(weights[nearest])
-    return torch.cat(out)
+def _nearest_vertex_weights(points, verts, weights):
+    """Skinning weights of the nearest template vertex (the reference's 'preset'), by a k-d tree."""
+    index, _ = nearest_vertices(points, verts)
+    return weights[index]
 
 
 class ForwardDeformer(torch.nn.Module):
