@@ -15,7 +15,8 @@ cd .gpu-debs
 for p in libfmt-dev libfmt9 nlohmann-json3-dev libeigen3-dev libcli11-dev libzip-dev libzip4 \
          libstb-dev libstb0 libtinygltf-dev libassimp-dev libassimp5 libdraco-dev libdraco7 \
          libminizip-dev libminizip1 libpugixml1v5 libpolyclipping22 libgtest-dev libgmock-dev \
-         libbenchmark-dev libbenchmark1debian zlib1g-dev libtinyobjloader-dev pkgconf pkgconf-bin libpkgconf3; do
+         libbenchmark-dev libbenchmark1debian zlib1g-dev libtinyobjloader-dev libnanoflann-dev pkgconf pkgconf-bin \
+         libpkgconf3; do
   apt-get download "$p" > /dev/null
 done
 ls -1 | wc -l | xargs echo "gpu_debs: .deb files in .gpu-debs:"
