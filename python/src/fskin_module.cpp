@@ -109,7 +109,20 @@ class PyFastSnarf {
   PyFastSnarf(const torch::Tensor& grid_weights, const VoxelBox& box, const py::object& start_bones,
               int max_iterations, bool exact_gradient, double length_unit, std::optional<double> tolerance)
       : field_(std::make_shared<fskin::CallerGridSkinningField>(grid_weights, box)),
-        deformer_(field_, options(box, start_bones, max_iterations, exact_gradient, length_unit, tolerance)) {}
+        deformer_(field_, options(box, start_bones, max_iterations, exact_gradient, length_unit, tolerance)),
+        arguments_(py::make_tuple(start_bones, max_iterations, exact_gradient, length_unit, tolerance)) {}
+
+  // pickle / copy.deepcopy: the grid (detached), the box and the constructor's search arguments.
+  py::tuple state() const { return py::make_tuple(field_->grid_weights().detach(), field_->box(), arguments_); }
+  static PyFastSnarf from_state(const py::tuple& state) {
+    FSKIN_CHECK(state.size() == 3, "FastSnarfDeformer: a pickled state has 3 parts, got {}", state.size());
+    const auto arguments = state[2].cast<py::tuple>();
+    FSKIN_CHECK(arguments.size() == 5, "FastSnarfDeformer: pickled search arguments have 5 parts, got {}",
+                arguments.size());
+    return PyFastSnarf(state[0].cast<torch::Tensor>(), state[1].cast<VoxelBox>(), arguments[0],
+                       arguments[1].cast<int>(), arguments[2].cast<bool>(), arguments[3].cast<double>(),
+                       arguments[4].cast<std::optional<double>>());
+  }
 
   std::tuple<torch::Tensor, torch::Tensor> forward(const torch::Tensor& x_posed, const torch::Tensor& bones) {
     const auto out = deformer_.forward(x_posed, bones);
@@ -134,6 +147,7 @@ class PyFastSnarf {
   }
   std::shared_ptr<fskin::CallerGridSkinningField> field_;
   fskin::FastSnarfDeformer deformer_;
+  py::tuple arguments_;  // start_bones, max_iterations, exact_gradient, length_unit, tolerance
 };
 
 // SNARF's deformer over fskin's skinning MLP, whose parameters the caller
@@ -381,6 +395,44 @@ PYBIND11_MODULE(_fskin, m) {
   py::class_<BodyModel>(m, "BodyModel",
                         "An SMPL-format body model: template mesh, skinning weights, skeleton (any joints)")
       .def_static("load", &BodyModel::load, py::arg("path"), "Read a model .npz (SMPL files, fskin's own, imports)")
+      .def(py::pickle(
+          [](const BodyModel& b) {
+            const auto& d = b.data();
+            const auto optional = [](const torch::Tensor& t) { return t.defined() ? py::cast(t) : py::none(); };
+            py::dict state;
+            state["v_template"] = d.v_template;
+            state["faces"] = d.faces;
+            state["weights"] = d.weights;
+            state["J_regressor"] = optional(d.J_regressor);
+            state["rest_joints"] = optional(d.rest_joints);
+            state["parents"] = d.parents;
+            state["joint_names"] = d.joint_names;
+            state["shapedirs"] = optional(d.shapedirs);
+            state["posedirs"] = optional(d.posedirs);
+            state["canonical_pose"] = optional(d.canonical_pose);
+            return state;
+          },
+          [](const py::dict& state) {
+            const auto tensor = [&](const char* key) {
+              FSKIN_CHECK(state.contains(key), "BodyModel: a pickled state lacks '{}'", key);
+              const py::object value = state[key];
+              return value.is_none() ? torch::Tensor() : value.cast<torch::Tensor>();
+            };
+            fskin::BodyModelData d;
+            d.v_template = tensor("v_template");
+            d.faces = tensor("faces");
+            d.weights = tensor("weights");
+            d.J_regressor = tensor("J_regressor");
+            d.rest_joints = tensor("rest_joints");
+            d.shapedirs = tensor("shapedirs");
+            d.posedirs = tensor("posedirs");
+            d.canonical_pose = tensor("canonical_pose");
+            FSKIN_CHECK(state.contains("parents") && state.contains("joint_names"),
+                        "BodyModel: a pickled state lacks its skeleton");
+            d.parents = state["parents"].cast<std::vector<int64_t>>();
+            d.joint_names = state["joint_names"].cast<std::vector<std::string>>();
+            return BodyModel(std::move(d), "BodyModel (unpickled)");
+          }))
       .def("save", &BodyModel::save, py::arg("path"))
       .def_property_readonly("num_joints", &BodyModel::num_joints)
       .def_property_readonly("num_vertices", &BodyModel::num_vertices)
@@ -850,7 +902,27 @@ PYBIND11_MODULE(_fskin, m) {
                              })
       .def("contains", &VoxelBox::contains, py::arg("points"))
       .def("voxel_centres", [](const VoxelBox& b) { return b.voxel_centres(); },
-           "Canonical positions of the voxel centres [D, H, W, 3]");
+           "Canonical positions of the voxel centres [D, H, W, 3]")
+      .def("__repr__",
+           [](const VoxelBox& b) {
+             return fmt::format("VoxelBox(shape=({}, {}, {}), offset=({:g}, {:g}, {:g}), scale=({:g}, {:g}, {:g}))",
+                                b.shape.depth, b.shape.height, b.shape.width, b.offset[0], b.offset[1], b.offset[2],
+                                b.scale[0], b.scale[1], b.scale[2]);
+           })
+      .def(py::pickle(
+          [](const VoxelBox& b) {
+            return py::make_tuple(b.offset, b.scale, py::make_tuple(b.shape.depth, b.shape.height, b.shape.width));
+          },
+          [](const py::tuple& state) {
+            FSKIN_CHECK(state.size() == 3, "VoxelBox: a pickled state has 3 parts, got {}", state.size());
+            VoxelBox b;
+            b.offset = state[0].cast<std::array<double, 3>>();
+            b.scale = state[1].cast<std::array<double, 3>>();
+            const auto shape = state[2].cast<std::tuple<int64_t, int64_t, int64_t>>();
+            b.shape = fskin::GridShape{std::get<0>(shape), std::get<1>(shape), std::get<2>(shape)};
+            b.validate("VoxelBox (unpickled)");
+            return b;
+          }));
 
   m.def(
       "diffuse_weights_to_grid",
@@ -887,7 +959,8 @@ PYBIND11_MODULE(_fskin, m) {
       .def_property("grid_weights", &PyFastSnarf::grid_weights, &PyFastSnarf::set_grid_weights,
                     "The skinning grid [D, H, W, J] the search reads; set a new one (with its graph) before each "
                     "forward to learn it")
-      .def_property_readonly("box", &PyFastSnarf::box);
+      .def_property_readonly("box", &PyFastSnarf::box)
+      .def(py::pickle([](const PyFastSnarf& d) { return d.state(); }, &PyFastSnarf::from_state));
 
   py::class_<PySnarf>(m, "SnarfDeformer",
                       "SNARF's deformer over a skinning MLP (softmax(20 logits)) whose parameters the caller optimises")

@@ -454,3 +454,29 @@ def test_half_precision_and_autocast_get_fskin_answers():
     assert roots_autocast.dtype == torch.float32 and posed.dtype == torch.float32
     assert torch.equal(valid, valid_autocast)
     assert torch.allclose(roots, roots_autocast)
+
+
+def test_body_model_voxel_box_and_deformer_pickle_and_deep_copy():
+    import copy
+    import pickle
+
+    body = fskin.humanoid(resolution=32)
+    clone = pickle.loads(pickle.dumps(body))
+    pose = torch.randn(1, body.num_joints, 3) * 0.3
+    for a, b in zip(body.forward(pose), clone.forward(pose)):
+        assert torch.equal(a, b)
+    assert clone.joint_names == body.joint_names and clone.parents == body.parents
+
+    box = fskin.VoxelBox.fit(body.v_template, 16)
+    box_copy = copy.deepcopy(box)
+    assert box_copy.shape == box.shape and repr(box_copy) == repr(box)
+    assert torch.equal(box_copy.voxel_centres(), box.voxel_centres())
+
+    grid = fskin.diffuse_weights_to_grid(body.v_template, body.weights, box)
+    deformer = fskin.FastSnarfDeformer(grid, box, start_bones=3, max_iterations=12)
+    _, _, bones = body.forward(pose)
+    x = body.forward(pose)[0][:, :50].float()
+    roots, valid = deformer.forward(x, bones)
+    for restored in (pickle.loads(pickle.dumps(deformer)), copy.deepcopy(deformer)):
+        again, valid_again = restored.forward(x, bones)
+        assert torch.equal(valid, valid_again) and torch.equal(roots, again)
