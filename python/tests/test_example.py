@@ -29,3 +29,12 @@ def test_train_and_repose_example(tmp_path):
         assert (vertices - canonical_vertices).abs().max() > 0  # it moved
     assert (out / "avatar.glb").read_bytes()[:4] == b"glTF"
     assert (out / "run" / "eval-test-ood.json").exists()
+
+
+def test_the_readmes_first_snippet_runs_as_written():
+    readme = open(os.path.join(os.path.dirname(__file__), "..", "..", "README.md")).read()
+    snippet = readme.split("```python\n", 1)[1].split("```", 1)[0]
+    scope = {}
+    exec(compile(snippet, "README.md (first Python snippet)", "exec"), scope)
+    x_canonical, valid = scope["x_canonical"], scope["valid"]
+    assert x_canonical.shape[:2] == scope["vertices"].shape[:2] and valid.any(-1).float().mean() > 0.9
