@@ -38,3 +38,20 @@ def test_the_readmes_first_snippet_runs_as_written():
     exec(compile(snippet, "README.md (first Python snippet)", "exec"), scope)
     x_canonical, valid = scope["x_canonical"], scope["valid"]
     assert x_canonical.shape[:2] == scope["vertices"].shape[:2] and valid.any(-1).float().mean() > 0.9
+
+
+def test_pip_installs_the_module_offline(tmp_path):
+    # The build directory of the module under test: PYTHONPATH=<build>/python.
+    build_dir = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(fskin.__file__))))
+    source = os.path.join(os.path.dirname(__file__), "..")
+    target = tmp_path / "site"
+    environment = dict(os.environ, FSKIN_BUILD_DIR=build_dir, PIP_NO_INDEX="1")
+    done = subprocess.run([sys.executable, "-m", "pip", "install", "--no-build-isolation", "--no-deps", "--target",
+                           str(target), source], capture_output=True, text=True, env=environment)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert (target / "fskin" / "py.typed").exists()
+    probe = "import fskin, torch; print(fskin.__file__); print(fskin.humanoid(resolution=32).num_joints)"
+    environment["PYTHONPATH"] = str(target)
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=environment, check=True)
+    location, joints = out.stdout.split()[-2:]
+    assert location.startswith(str(target)) and int(joints) == 24
