@@ -10,6 +10,9 @@
 #include <filesystem>
 #include <optional>
 
+#include <nlohmann/json.hpp>
+#include "fskin/util/atomic_file.h"
+#include "fskin/radiance/avatar_config.h"
 #include "fskin/geometry/nearest_vertex.h"
 #include "fskin/body/body_model.h"
 #include "fskin/body/character.h"
@@ -714,7 +717,7 @@ PYBIND11_MODULE(_fskin, m) {
   m.def(
       "train_avatar",
       [](const std::string& data, const std::string& out, int64_t steps, int64_t rays_per_step, bool resume,
-         uint64_t seed, bool progress) {
+         uint64_t seed, bool progress, const std::vector<std::string>& settings, const std::string& config) {
         fskin::AvatarTrainOptions options;
         options.data_dir = data;
         options.out_dir = out;
@@ -723,6 +726,17 @@ PYBIND11_MODULE(_fskin, m) {
         options.resume = resume;
         options.seed = seed;
         options.progress = progress;
+        // As `fskin avatar train`: the arguments, then the config file, then each setting.
+        if (!config.empty()) {
+          nlohmann::json document;
+          try {
+            document = nlohmann::json::parse(fskin::read_file(config));
+          } catch (const nlohmann::json::exception& e) {
+            fskin::fail("{}: {}", config, e.what());
+          }
+          options = fskin::avatar_options_from_document(document, options, config);
+        }
+        for (const auto& setting : settings) fskin::set_avatar_option(options, setting);
         fskin::AvatarTrainSummary summary;
         {
           py::gil_scoped_release release;
@@ -735,7 +749,10 @@ PYBIND11_MODULE(_fskin, m) {
       },
       py::arg("data"), py::arg("out"), py::arg("steps") = 2000, py::arg("rays_per_step") = 4096,
       py::arg("resume") = false, py::arg("seed") = 0, py::arg("progress") = false,
-      "`fskin avatar train`: a radiance field through the Fast-SNARF deformer from an image dataset");
+      py::arg("settings") = std::vector<std::string>{}, py::arg("config") = "",
+      "`fskin avatar train`: a radiance field through the Fast-SNARF deformer from an image dataset; every option "
+      "of the avatar's config (radiance/avatar_config.h) through settings ['model.occupancy_grid.every=50', ...] "
+      "and a config file");
   m.def(
       "evaluate_avatar",
       [](const std::string& run, const std::string& split, const std::string& data, int64_t max_images) {

@@ -1,4 +1,6 @@
 """The radiance-field ops and avatars from images, from Python."""
+import json
+
 import numpy as np
 import pytest
 import torch
@@ -73,3 +75,15 @@ def test_image_dataset_training_and_evaluation(tmp_path):
                                        32, 32)
     assert rgb.shape == (32, 32, 3) and opacity.shape == (32, 32)
     assert 0.0 < float(opacity.max()) <= 1.0
+    # Every avatar option through settings and a config file, as `fskin avatar train --set / --config`.
+    config = tmp_path / "avatar.json"
+    config.write_text(json.dumps({"model": {"field": {"network": {"hidden_dim": 16}}}}))
+    fskin.train_avatar(str(tmp_path / "images"), str(tmp_path / "run2"), steps=2, rays_per_step=64,
+                       settings=["model.occupancy_grid.every=7", "losses.opacity.weight=0.2"], config=str(config))
+    recorded = json.loads((tmp_path / "run2" / "avatar.json").read_text())
+    assert recorded["model"]["occupancy_grid"]["every"] == 7
+    assert recorded["model"]["field"]["network"]["hidden_dim"] == 16
+    assert recorded["losses"]["opacity"]["weight"] == 0.2
+    with pytest.raises(fskin.Error, match="model.occupancy_grid.evry: unknown key"):
+        fskin.train_avatar(str(tmp_path / "images"), str(tmp_path / "run3"), steps=1,
+                           settings=["model.occupancy_grid.evry=7"])
