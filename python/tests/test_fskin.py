@@ -480,3 +480,15 @@ def test_body_model_voxel_box_and_deformer_pickle_and_deep_copy():
     for restored in (pickle.loads(pickle.dumps(deformer)), copy.deepcopy(deformer)):
         again, valid_again = restored.forward(x, bones)
         assert torch.equal(valid, valid_again) and torch.equal(roots, again)
+
+
+def test_body_model_forward_keeps_float64_and_its_gradients():
+    body = fskin.humanoid(resolution=32)
+    pose = (torch.randn(1, body.num_joints, 3, dtype=torch.float64) * 0.2).requires_grad_()
+    trans = torch.randn(1, 3, dtype=torch.float64, requires_grad=True)
+    vertices, joints, bones = body.forward(pose, trans=trans)
+    assert vertices.dtype == joints.dtype == bones.dtype == torch.float64
+    single = body.forward(pose.detach().float(), trans=trans.detach().float())[0]
+    assert single.dtype == torch.float32 and torch.allclose(single.double(), vertices, atol=1e-5)
+    few = torch.arange(0, body.num_vertices, 997)
+    assert torch.autograd.gradcheck(lambda p, t: body.forward(p, trans=t)[0][:, few], (pose, trans))

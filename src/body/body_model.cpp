@@ -140,21 +140,24 @@ PosedBody BodyModel::pose(const torch::Tensor& axis_angle, const torch::Tensor& 
   expect_shape(axis_angle, {-1, J, 3}, "BodyModel::pose: axis_angle");
   expect_finite(axis_angle, "BodyModel::pose: axis_angle");
   const int64_t B = axis_angle.size(0);
-  auto v_shaped = data_.v_template.unsqueeze(0).expand({B, -1, -1});
+  // float64 poses are posed in float64 (gradient checks, fitting); anything else in the model's float32.
+  const auto dtype = axis_angle.scalar_type() == torch::kFloat64 ? torch::kFloat64 : torch::kFloat32;
+  const auto model = [dtype](const torch::Tensor& t) { return t.defined() ? t.to(dtype) : t; };
+  auto v_shaped = model(data_.v_template).unsqueeze(0).expand({B, -1, -1});
   if (betas.defined() && betas.numel() > 0) {
     expect_shape(betas, {B, -1}, "BodyModel::pose: betas");
     FSKIN_CHECK(betas.size(1) <= num_betas(), "BodyModel::pose: {} betas given, the model has {}",
                 betas.size(1), num_betas());
-    const auto dirs = data_.shapedirs.narrow(2, 0, betas.size(1));  // [V, 3, S]
-    v_shaped = v_shaped + torch::einsum("vcs,bs->bvc", {dirs, betas.to(torch::kFloat32)});
+    const auto dirs = model(data_.shapedirs).narrow(2, 0, betas.size(1));  // [V, 3, S]
+    v_shaped = v_shaped + torch::einsum("vcs,bs->bvc", {dirs, betas.to(dtype)});
   }
   // Rest joints given directly do not follow the shape (imported rigs have no shape space).
-  const auto joints = data_.rest_joints.defined() ? data_.rest_joints.unsqueeze(0).expand({B, -1, -1})
-                                                  : torch::matmul(data_.J_regressor, v_shaped);  // [B, J, 3]
-  const auto rotations = axis_angle_to_matrix(axis_angle.to(torch::kFloat32));
+  const auto joints = data_.rest_joints.defined() ? model(data_.rest_joints).unsqueeze(0).expand({B, -1, -1})
+                                                  : torch::matmul(model(data_.J_regressor), v_shaped);  // [B, J, 3]
+  const auto rotations = axis_angle_to_matrix(axis_angle.to(dtype));
   auto v_posed = v_shaped;
   if (data_.posedirs.defined())
-    v_posed = v_posed + torch::einsum("vcp,bp->bvc", {data_.posedirs, pose_features(rotations)});
+    v_posed = v_posed + torch::einsum("vcp,bp->bvc", {model(data_.posedirs), pose_features(rotations)});
   if (trans.defined()) {
     expect_shape(trans, {B, 3}, "BodyModel::pose: trans");
     expect_finite(trans, "BodyModel::pose: trans");
@@ -163,8 +166,8 @@ PosedBody BodyModel::pose(const torch::Tensor& axis_angle, const torch::Tensor& 
     expect_shape(joint_translations, {B, J, 3}, "BodyModel::pose: joint_translations");
     expect_finite(joint_translations, "BodyModel::pose: joint_translations");
   }
-  const auto posed = forward_kinematics(data_.parents, joints, rotations, trans, joint_translations);
-  return PosedBody{linear_blend_skinning(v_posed, data_.weights, posed.bone_transforms),
+  const auto posed = forward_kinematics(data_.parents, joints, rotations, model(trans), model(joint_translations));
+  return PosedBody{linear_blend_skinning(v_posed, model(data_.weights), posed.bone_transforms),
                    posed.joints, posed.bone_transforms};
 }
 
