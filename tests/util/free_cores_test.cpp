@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <ctime>
 
 namespace fskin {
 namespace {
@@ -70,16 +71,22 @@ TEST(FreeCores, ReadsThisMachineAndCountsOurOwnWorkAsOurs) {
   const auto before = read_cpu_times();
   ASSERT_TRUE(before.has_value()) << "/proc/stat unreadable";
   EXPECT_GE(before->cores, 1);
+  // Spin until this process has used 0.4 s of CPU (by the C library's
+  // clock, not /proc), however long a loaded machine makes that take.
   const auto start = std::chrono::steady_clock::now();
+  const std::clock_t cpu_start = std::clock();
   volatile double x = 1;
-  while (std::chrono::steady_clock::now() - start < std::chrono::milliseconds(400)) x = x * 1.0000001 + 1e-9;
+  while (static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC < 0.4 &&
+         std::chrono::steady_clock::now() - start < std::chrono::seconds(30)) {
+    x = x * 1.0000001 + 1e-9;
+  }
   const auto after = read_cpu_times();
   ASSERT_TRUE(after.has_value());
   const double ours = after->self_s - before->self_s;
-  EXPECT_GT(ours, 0.25);  // the spin above, on this thread
+  EXPECT_GT(ours, 0.25);  // the spin above, on this thread (tick accounting: slack)
   // The machine's busy time includes ours (tick accounting: 0.1 s slack).
   EXPECT_GE(after->machine_busy_s - before->machine_busy_s, ours - 0.1);
-  EXPECT_GT(after->wall_s - before->wall_s, 0.39);
+  EXPECT_GT(after->wall_s - before->wall_s, 0.3);
 }
 
 TEST(FreeCores, EnablingSetsTheMaximumAndFollowingIsANoOpWhenOff) {
