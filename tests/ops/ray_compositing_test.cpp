@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "fskin/core/error.h"
+#include "ops/common/dispatcher.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -146,6 +147,29 @@ TEST(RayCompositing, BadInputsAreErrorsThatSayWhat) {
       composite_rays(torch::zeros({0, 8}), torch::zeros({0, 8, 3}), torch::zeros({0, 8}), torch::zeros({0, 3}));
   EXPECT_EQ(color.size(0), 0);
   EXPECT_EQ(opacity.size(0), 0);
+}
+
+TEST(RayCompositing, IsAnOperatorInPyTorchsDispatcherWithItsOwnBackward) {
+  // Called by name through the dispatcher, as torch.ops.fskin.composite_rays
+  // and TorchScript call it: the same values and gradients as the C++ entry.
+  torch::manual_seed(3);
+  const auto rays = random_rays(50, 16, torch::kFloat64);
+  using Signature = std::tuple<torch::Tensor, torch::Tensor>(const torch::Tensor&, const torch::Tensor&,
+                                                             const torch::Tensor&, const torch::Tensor&);
+  const auto op = fskin_operator<Signature>("fskin::composite_rays");
+  const auto sigma = rays.sigma.clone().requires_grad_(true);
+  const auto reference_sigma = rays.sigma.clone().requires_grad_(true);
+  const auto [color, opacity] = op.call(sigma, rays.rgb, rays.delta, rays.background);
+  const auto [expected_color, expected_opacity] =
+      composite_rays_reference(reference_sigma, rays.rgb, rays.delta, rays.background);
+  EXPECT_TRUE(torch::allclose(color, expected_color, 0, 1e-12));
+  EXPECT_TRUE(torch::allclose(opacity, expected_opacity, 0, 1e-12));
+  const auto loss = color.sum() + opacity.sum();
+  const auto grad = torch::autograd::grad({loss}, {sigma}, {}, /*retain_graph=*/true)[0];
+  const auto expected_grad = torch::autograd::grad({expected_color.sum() + expected_opacity.sum()}, {reference_sigma})[0];
+  EXPECT_TRUE(torch::allclose(grad, expected_grad, 0, 1e-10));
+  // The backward is an op too, and says it has no derivative of its own.
+  EXPECT_THROW(torch::autograd::grad({loss}, {sigma}, {}, true, /*create_graph=*/true), std::exception);
 }
 
 }  // namespace
