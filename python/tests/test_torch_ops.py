@@ -49,3 +49,42 @@ def test_bad_inputs_to_a_dispatcher_op_say_what_is_wrong():
         torch.ops.fskin.composite_rays(sigma, rgb[:, :, :2], delta, background)
     with pytest.raises(RuntimeError, match="share one dtype"):
         torch.ops.fskin.composite_rays(sigma.float(), rgb, delta, background)
+
+
+def test_hash_encoding_is_a_dispatcher_op_differentiable_in_positions_and_table():
+    table = fskin.hash_encoding_table(levels=3, features_per_level=2, log2_table_size=6, base_resolution=2,
+                                      per_level_scale=2.0, dtype=torch.float64).mul_(1e3).requires_grad_()
+    positions = torch.rand(20, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(1)).requires_grad_()
+    features = torch.ops.fskin.hash_encoding(positions, table, 2, 2.0)
+    expected = fskin.hash_encoding(positions, table, levels=3, features_per_level=2, log2_table_size=6,
+                                   base_resolution=2, per_level_scale=2.0)
+    assert features.shape == (20, 6) and torch.allclose(features, expected)
+    assert torch.autograd.gradcheck(lambda p, t: torch.ops.fskin.hash_encoding(p, t, 2, 2.0), (positions, table))
+
+
+def identity_grid(depth=4, height=5, width=6, dtype=torch.float64):
+    grid = torch.zeros(1, depth, height, width, 12, dtype=dtype)
+    grid[..., 0] = grid[..., 5] = grid[..., 10] = 1  # row-major [R | t] with R = I, t = 0
+    return grid
+
+
+def test_grid_forward_skinning_and_broyden_search_are_dispatcher_ops():
+    grid = identity_grid()
+    grid[..., 3] = 0.25  # translate every voxel by +0.25 in x
+    offset, scale = [0.0, 0.0, 0.0], [1.0, 1.0, 1.0]
+    x = torch.rand(1, 30, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(2)) - 0.5
+    posed = torch.ops.fskin.grid_forward_skinning(grid, offset, scale, x)
+    assert torch.allclose(posed, x + torch.tensor([0.25, 0.0, 0.0], dtype=torch.float64))
+    starts = torch.eye(4, dtype=torch.float64).expand(1, 2, 4, 4).contiguous()
+    roots, valid, iterations, start_index, inverse_jacobian = torch.ops.fskin.broyden_search(
+        grid, offset, scale, posed, starts, return_inverse_jacobian=True)
+    assert roots.shape == (1, 30, 2, 3) and bool(valid.all())
+    assert torch.allclose(roots, x.unsqueeze(2).expand_as(roots), atol=1e-6)
+    assert inverse_jacobian.shape == (1, 30, 2, 3, 3) and start_index.dtype == torch.int64
+    kept = torch.ops.fskin.filter_duplicate_roots(roots, valid)
+    assert bool(kept[..., 0].all()) and not bool(kept[..., 1].any())  # both starts found the same root
+
+
+def test_a_box_of_the_wrong_size_is_an_error_naming_the_op():
+    with pytest.raises(RuntimeError, match="grid_forward_skinning: box_offset"):
+        torch.ops.fskin.grid_forward_skinning(identity_grid(), [0.0, 0.0], [1.0, 1.0, 1.0], torch.zeros(1, 2, 3))

@@ -36,5 +36,18 @@ TEST(TensorChecks, NonFiniteValuesAreReported) {
   expect_finite(torch::zeros({3}, torch::kInt64), "ints are always finite");
 }
 
+TEST(TensorChecks, FinitenessIsExactInEveryFloatingTypeAndAtEveryPosition) {
+  // Doubles beyond float's range are finite; NaN is found wherever it sits
+  // (the one-pass check works in blocks of eight, then a tail).
+  expect_finite(torch::full({100}, 1e300, torch::kFloat64), "large doubles");
+  for (const auto dtype : {torch::kFloat32, torch::kFloat64, torch::kFloat16, torch::kBFloat16}) {
+    for (const int64_t at : {0, 7, 8, 99, 70000}) {
+      auto t = torch::rand({70001}).to(dtype);
+      t[at] = std::numeric_limits<float>::quiet_NaN();
+      testing::expect_error([&] { expect_finite(t, "x"); }, {"x", "1 non-finite", fmt::format("index {}", at)});
+    }
+  }
+}
+
 }  // namespace
 }  // namespace fskin

@@ -7,7 +7,10 @@
 // device of its inputs: CPU (at::parallel_for) or CUDA (when built with it).
 // Not differentiable by itself: the deformers attach the implicit gradient
 // (ops/implicit_gradient.h) to the roots it finds. SNARF's search runs the
-// same solver with residuals from its MLP (ops/broyden_lanes.h).
+// same solver with residuals from its MLP (ops/broyden_lanes.h). In PyTorch's
+// dispatcher as fskin::broyden_search(transform_grid, box_offset, box_scale,
+// x_posed, start_inverses, start_weights, <the options' fields>) -> the
+// result's five tensors; Python: torch.ops.fskin.broyden_search.
 #include <torch/types.h>
 
 #include "fskin/geometry/voxel_box.h"

@@ -2,7 +2,9 @@
 // Duplicate removal (Fast-SNARF sec. 4.1): different starts often converge to
 // the same root; a valid candidate closer than `distance` to an earlier valid
 // candidate of the same point is marked invalid, so the canonical fields are
-// evaluated once per distinct root. Dispatches on device (CPU / CUDA).
+// evaluated once per distinct root. Dispatches on device (CPU / CUDA). In
+// PyTorch's dispatcher as fskin::filter_duplicate_roots; Python:
+// torch.ops.fskin.filter_duplicate_roots.
 #include <torch/types.h>
 
 namespace fskin {

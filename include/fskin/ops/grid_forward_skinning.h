@@ -7,6 +7,9 @@
 // (docs/benchmarks.md). Dispatches on the device of its inputs: CPU
 // (at::parallel_for) or CUDA (when built with it). Not differentiable: the
 // deformer uses it only where gradients are off (evaluation, meshing, re-posing).
+// In PyTorch's dispatcher as fskin::grid_forward_skinning(transform_grid,
+// box_offset, box_scale, x_canonical) (the box's voxel counts are the grid's
+// shape); Python: torch.ops.fskin.grid_forward_skinning.
 #include <torch/types.h>
 
 #include "fskin/geometry/voxel_box.h"

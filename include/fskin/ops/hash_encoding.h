@@ -10,7 +10,10 @@
 //
 // One fused op with a CPU kernel (at::parallel_for) and a CUDA kernel sharing
 // their per-point core (src/ops/hash_encoding/), differentiable in the table
-// and the positions (torch::autograd::Function; no double backward).
+// and the positions (no double backward). In PyTorch's dispatcher as
+// fskin::hash_encoding(positions, table, base_resolution, per_level_scale)
+// (L, F and T are the table's shape) with its backward
+// fskin::_hash_encoding_backward; Python: torch.ops.fskin.hash_encoding.
 #include <torch/types.h>
 
 #include <cstdint>

@@ -8,7 +8,9 @@
 // with its analytic backward: a second front-to-back pass that keeps the
 // prefix sums, so no per-sample state is stored. Samples with delta 0 add
 // nothing (padding for rays with fewer samples). No early termination: the
-// gradient is that of the full sum.
+// gradient is that of the full sum. In PyTorch's dispatcher as
+// fskin::composite_rays with its backward fskin::_composite_rays_backward;
+// Python: torch.ops.fskin.composite_rays.
 #include <torch/types.h>
 
 #include <tuple>

@@ -1,12 +1,16 @@
-// broyden_search: validates the inputs, fills the raw launch arguments and
-// dispatches on device and dtype.
+// broyden_search as the dispatcher op fskin::broyden_search (schema, CPU /
+// CUDA kernels; ops/common/dispatcher.h): validates the inputs, fills the raw
+// launch arguments and dispatches on dtype.
 #include "fskin/ops/broyden_search.h"
 
+#include <torch/library.h>
 #include <torch/torch.h>
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "ops/broyden_search/broyden_search_kernel.h"
+#include "ops/common/box_arguments.h"
+#include "ops/common/dispatcher.h"
 #include "ops/common/run_on_device.h"
 #include "ops/common/transform_grid_view.h"
 
@@ -38,12 +42,33 @@ broyden::SearchLaunch<T> make_launch(const torch::Tensor& grid, const VoxelBox& 
   return a;
 }
 
-}  // namespace
+using SearchOutputs = std::tuple<torch::Tensor, torch::Tensor, torch::Tensor, torch::Tensor, torch::Tensor>;
+using SearchSignature = SearchOutputs(const torch::Tensor&, c10::ArrayRef<double>, c10::ArrayRef<double>,
+                                      const torch::Tensor&, const torch::Tensor&, const c10::optional<torch::Tensor>&,
+                                      int64_t, double, double, double, bool, int64_t, bool);
 
-BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const VoxelBox& box,
-                                   const torch::Tensor& x_posed, const torch::Tensor& start_inverses,
-                                   const BroydenSearchOptions& options, const torch::Tensor& start_weights) {
-  box.validate("broyden_search");
+// The CPU and CUDA keys' kernel (one function: the devices share the per-pair
+// core and launch arguments; run_on_device picks the launch). Not
+// differentiable by itself: the deformers attach the implicit gradient.
+SearchOutputs broyden_search_kernel(const torch::Tensor& transform_grid, c10::ArrayRef<double> box_offset,
+                                    c10::ArrayRef<double> box_scale, const torch::Tensor& x_posed,
+                                    const torch::Tensor& start_inverses,
+                                    const c10::optional<torch::Tensor>& optional_start_weights,
+                                    int64_t max_iterations, double converge_sq, double diverge_sq,
+                                    double denominator_eps, bool final_step, int64_t num_starts,
+                                    bool return_inverse_jacobian) {
+  const auto box = box_from_arguments(box_offset, box_scale, transform_grid, "broyden_search");
+  FSKIN_CHECK(max_iterations >= 0 && max_iterations <= 255, "broyden_search: max_iterations = {} must be in 0..255",
+              max_iterations);
+  BroydenSearchOptions options;
+  options.max_iterations = static_cast<int>(max_iterations);
+  options.converge_sq = converge_sq;
+  options.diverge_sq = diverge_sq;
+  options.denominator_eps = denominator_eps;
+  options.final_step = final_step;
+  options.num_starts = num_starts;
+  options.return_inverse_jacobian = return_inverse_jacobian;
+  const torch::Tensor start_weights = optional_start_weights ? *optional_start_weights : torch::Tensor();
   expect_shape(x_posed, {-1, -1, 3}, "broyden_search: x_posed");
   const int64_t B = x_posed.size(0), N = x_posed.size(1);
   expect_shape(transform_grid, {B, box.shape.depth, box.shape.height, box.shape.width, kernels::kChannels},
@@ -55,8 +80,6 @@ BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const Vo
   const int64_t I = options.num_starts < 0 ? S : options.num_starts;
   FSKIN_CHECK(I >= 1 && I <= S, "broyden_search: num_starts = {} must be in 1..{} (the start bones given)",
               options.num_starts, S);
-  FSKIN_CHECK(options.max_iterations >= 0 && options.max_iterations <= 255,
-              "broyden_search: max_iterations = {} must be in 0..255", options.max_iterations);
   FSKIN_CHECK(options.converge_sq > 0 && options.diverge_sq > options.converge_sq,
               "broyden_search: thresholds must satisfy 0 < converge_sq ({}) < diverge_sq ({})",
               options.converge_sq, options.diverge_sq);
@@ -87,7 +110,8 @@ BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const Vo
   r.iterations = torch::empty({B, N, I}, opts.dtype(torch::kUInt8));
   r.start_index = torch::empty({B, N, I}, opts.dtype(torch::kInt64));
   if (options.return_inverse_jacobian) r.inverse_jacobian = torch::empty({B, N, I, 3, 3}, opts);
-  if (B * N == 0) return r;
+  const SearchOutputs outputs{r.x_canonical, r.valid, r.iterations, r.start_index, r.inverse_jacobian};
+  if (B * N == 0) return outputs;
 
   AT_DISPATCH_FLOATING_TYPES(dtype, "broyden_search", [&] {
     const auto launch = make_launch<scalar_t>(grid, box, xp, starts, weights, I, options, r);
@@ -95,7 +119,41 @@ BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const Vo
         xp, "broyden_search", [&] { broyden::broyden_search_cpu(launch); },
         [&](void* stream) { broyden::broyden_search_cuda(launch, stream); });
   });
-  return r;
+  return outputs;
+}
+
+}  // namespace
+
+TORCH_LIBRARY_FRAGMENT(fskin, m) {
+  m.def(
+      "broyden_search(Tensor transform_grid, float[] box_offset, float[] box_scale, Tensor x_posed, "
+      "Tensor start_inverses, Tensor? start_weights=None, int max_iterations=10, float converge_sq=1e-08, "
+      "float diverge_sq=0.25, float denominator_eps=0., bool final_step=True, int num_starts=-1, "
+      "bool return_inverse_jacobian=False) -> (Tensor x_canonical, Tensor valid, Tensor iterations, "
+      "Tensor start_index, Tensor inverse_jacobian)");
+}
+
+TORCH_LIBRARY_IMPL(fskin, CPU, m) { m.impl("broyden_search", TORCH_FN(broyden_search_kernel)); }
+
+#ifdef FSKIN_WITH_CUDA
+TORCH_LIBRARY_IMPL(fskin, CUDA, m) { m.impl("broyden_search", TORCH_FN(broyden_search_kernel)); }
+#endif
+
+BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const VoxelBox& box,
+                                   const torch::Tensor& x_posed, const torch::Tensor& start_inverses,
+                                   const BroydenSearchOptions& options, const torch::Tensor& start_weights) {
+  box.validate("broyden_search");
+  expect_shape(x_posed, {-1, -1, 3}, "broyden_search: x_posed");
+  expect_shape(transform_grid,
+               {x_posed.size(0), box.shape.depth, box.shape.height, box.shape.width, kernels::kChannels},
+               "broyden_search: transform_grid");
+  static const auto op = fskin_operator<SearchSignature>("fskin::broyden_search");
+  const auto [x, valid, iterations, start_index, inverse_jacobian] =
+      op.call(transform_grid, box_offset_argument(box), box_scale_argument(box), x_posed, start_inverses,
+              start_weights.defined() ? c10::optional<torch::Tensor>(start_weights) : c10::nullopt,
+              options.max_iterations, options.converge_sq, options.diverge_sq, options.denominator_eps,
+              options.final_step, options.num_starts, options.return_inverse_jacobian);
+  return {x, valid, iterations, start_index, inverse_jacobian};
 }
 
 }  // namespace fskin

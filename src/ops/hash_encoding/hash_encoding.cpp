@@ -1,14 +1,18 @@
-// hash_encoding: validates the inputs, fills the raw launch arguments,
-// dispatches on device and dtype, and wires forward and backward into
-// autograd. Also the LibTorch reference of the same encoding.
+// hash_encoding as the dispatcher op fskin::hash_encoding (schema, CPU / CUDA
+// kernels, Autograd; ops/common/dispatcher.h): validates the inputs, fills the
+// raw launch arguments, dispatches on dtype, and wires forward and backward
+// into autograd. Also the LibTorch reference of the same encoding.
 #include "fskin/ops/hash_encoding.h"
 
+#include <torch/library.h>
 #include <torch/torch.h>
 
+#include <array>
 #include <cmath>
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
+#include "ops/common/dispatcher.h"
 #include "ops/common/run_on_device.h"
 #include "ops/hash_encoding/hash_encoding_kernel.h"
 
@@ -104,64 +108,140 @@ torch::Tensor encode(const torch::Tensor& positions, const torch::Tensor& table,
   return out;
 }
 
-HashEncodingOptions options_from(torch::autograd::AutogradContext* ctx) {
+// The dispatcher's schema carries the table and (N_min, b); L, F and T are the table's shape.
+HashEncodingOptions options_of(const torch::Tensor& table, int64_t base_resolution, double per_level_scale) {
+  FSKIN_CHECK(table.dim() == 3, "hash_encoding: table must be [levels, 2^T, features], got {} dimensions", table.dim());
   HashEncodingOptions o;
-  o.levels = ctx->saved_data["levels"].toInt();
-  o.features_per_level = ctx->saved_data["features"].toInt();
-  o.log2_table_size = ctx->saved_data["log2_table_size"].toInt();
-  o.base_resolution = ctx->saved_data["base_resolution"].toInt();
-  o.per_level_scale = ctx->saved_data["per_level_scale"].toDouble();
+  o.levels = table.size(0);
+  o.features_per_level = table.size(2);
+  const int64_t rows = table.size(1);
+  FSKIN_CHECK(rows >= 1 && (rows & (rows - 1)) == 0, "hash_encoding: table rows {} must be a power of two (2^T)", rows);
+  o.log2_table_size = 0;
+  while ((int64_t{1} << o.log2_table_size) < rows) ++o.log2_table_size;
+  o.base_resolution = base_resolution;
+  o.per_level_scale = per_level_scale;
   return o;
 }
 
+using EncodingSignature = torch::Tensor(const torch::Tensor&, const torch::Tensor&, int64_t, double);
+using EncodingBackwardSignature = std::tuple<torch::Tensor, torch::Tensor>(
+    const torch::Tensor&, const torch::Tensor&, const torch::Tensor&, int64_t, double, std::array<bool, 2>);
+
+// The CPU and CUDA keys' kernel (one function: the devices share the per-point
+// core and launch arguments; run_on_device picks the launch).
+torch::Tensor hash_encoding_kernel(const torch::Tensor& positions, const torch::Tensor& table, int64_t base_resolution,
+                                   double per_level_scale) {
+  const auto o = options_of(table, base_resolution, per_level_scale);
+  check_inputs(positions, table, o);
+  return encode(positions.contiguous(), table.contiguous(), o);
+}
+
+// d features -> (d positions, d table); output_mask says which are wanted.
+std::tuple<torch::Tensor, torch::Tensor> hash_encoding_backward_kernel(const torch::Tensor& grad_features,
+                                                                       const torch::Tensor& positions_in,
+                                                                       const torch::Tensor& table_in,
+                                                                       int64_t base_resolution, double per_level_scale,
+                                                                       std::array<bool, 2> output_mask) {
+  const auto o = options_of(table_in, base_resolution, per_level_scale);
+  check_inputs(positions_in, table_in, o);
+  const auto positions = positions_in.contiguous(), table = table_in.contiguous();
+  expect_shape(grad_features, {positions.size(0), o.output_dim()}, "hash_encoding backward: grad_features");
+  const auto grad_out = grad_features.to(positions.options()).contiguous();
+  torch::Tensor grad_positions, grad_table;
+  if (output_mask[0]) grad_positions = torch::empty_like(positions);
+  if (output_mask[1]) grad_table = torch::zeros_like(table);
+  if (positions.size(0) > 0 && (grad_positions.defined() || grad_table.defined())) {
+    AT_DISPATCH_FLOATING_TYPES(positions.scalar_type(), "hash_encoding backward", [&] {
+      auto a = launch_for<scalar_t>(positions, table, o);
+      a.grad_out = grad_out.data_ptr<scalar_t>();
+      a.grad_positions = grad_positions.defined() ? grad_positions.data_ptr<scalar_t>() : nullptr;
+      a.grad_table = grad_table.defined() ? grad_table.data_ptr<scalar_t>() : nullptr;
+      run_on_device(
+          positions, "hash_encoding backward", [&] { hash_grid::hash_encoding_backward_cpu(a); },
+          [&](void* stream) { hash_grid::hash_encoding_backward_cuda(a, stream); });
+    });
+  } else if (grad_positions.defined()) {
+    grad_positions.zero_();
+  }
+  return {grad_positions, grad_table};
+}
+
+// The Autograd key: records the graph and runs the kernels below it.
 class HashEncodingFunction : public torch::autograd::Function<HashEncodingFunction> {
  public:
   static torch::Tensor forward(torch::autograd::AutogradContext* ctx, const torch::Tensor& positions,
-                               const torch::Tensor& table, const HashEncodingOptions& o) {
-    const auto p = positions.contiguous(), t = table.contiguous();
-    ctx->save_for_backward({p, t});
-    ctx->saved_data["levels"] = o.levels;
-    ctx->saved_data["features"] = o.features_per_level;
-    ctx->saved_data["log2_table_size"] = o.log2_table_size;
-    ctx->saved_data["base_resolution"] = o.base_resolution;
-    ctx->saved_data["per_level_scale"] = o.per_level_scale;
-    return encode(p, t, o);
+                               const torch::Tensor& table, int64_t base_resolution, double per_level_scale) {
+    ctx->save_for_backward({positions, table});
+    ctx->saved_data["base_resolution"] = base_resolution;
+    ctx->saved_data["per_level_scale"] = per_level_scale;
+    at::AutoDispatchBelowADInplaceOrView below_autograd;
+    static const auto op = fskin_operator<EncodingSignature>("fskin::hash_encoding");
+    return op.call(positions, table, base_resolution, per_level_scale);
   }
 
   static torch::autograd::tensor_list backward(torch::autograd::AutogradContext* ctx,
                                                torch::autograd::tensor_list grad_outputs) {
     const auto saved = ctx->get_saved_variables();
-    const auto& positions = saved[0];
-    const auto& table = saved[1];
-    const auto o = options_from(ctx);
-    const auto grad_out = grad_outputs[0].contiguous();
-    torch::Tensor grad_positions, grad_table;
-    if (ctx->needs_input_grad(0)) grad_positions = torch::empty_like(positions);
-    if (ctx->needs_input_grad(1)) grad_table = torch::zeros_like(table);
-    if (positions.size(0) > 0 && (grad_positions.defined() || grad_table.defined())) {
-      AT_DISPATCH_FLOATING_TYPES(positions.scalar_type(), "hash_encoding backward", [&] {
-        auto a = launch_for<scalar_t>(positions, table, o);
-        a.grad_out = grad_out.data_ptr<scalar_t>();
-        a.grad_positions = grad_positions.defined() ? grad_positions.data_ptr<scalar_t>() : nullptr;
-        a.grad_table = grad_table.defined() ? grad_table.data_ptr<scalar_t>() : nullptr;
-        run_on_device(
-            positions, "hash_encoding backward", [&] { hash_grid::hash_encoding_backward_cpu(a); },
-            [&](void* stream) { hash_grid::hash_encoding_backward_cuda(a, stream); });
-      });
-    } else if (grad_positions.defined()) {
-      grad_positions.zero_();
-    }
-    return {grad_positions, grad_table, torch::Tensor()};
+    static const auto op = fskin_operator<EncodingBackwardSignature>("fskin::_hash_encoding_backward");
+    const auto [grad_positions, grad_table] =
+        op.call(grad_outputs[0], saved[0], saved[1], ctx->saved_data["base_resolution"].toInt(),
+                ctx->saved_data["per_level_scale"].toDouble(), {ctx->needs_input_grad(0), ctx->needs_input_grad(1)});
+    return {grad_positions, grad_table, torch::Tensor(), torch::Tensor()};
   }
 };
 
+torch::Tensor hash_encoding_autograd(const torch::Tensor& positions, const torch::Tensor& table,
+                                     int64_t base_resolution, double per_level_scale) {
+  return HashEncodingFunction::apply(positions, table, base_resolution, per_level_scale);
+}
+
+// The backward op under Autograd: no derivative of its own (no double backward).
+std::tuple<torch::Tensor, torch::Tensor> hash_encoding_backward_autograd(const torch::Tensor& grad_features,
+                                                                         const torch::Tensor& positions,
+                                                                         const torch::Tensor& table,
+                                                                         int64_t base_resolution,
+                                                                         double per_level_scale,
+                                                                         std::array<bool, 2> output_mask) {
+  const bool differentiated = grad_features.requires_grad() || positions.requires_grad() || table.requires_grad();
+  FSKIN_CHECK(!(torch::GradMode::is_enabled() && differentiated),
+              "hash_encoding: double backward (create_graph=True) is not supported");
+  at::AutoDispatchBelowADInplaceOrView below_autograd;
+  static const auto op = fskin_operator<EncodingBackwardSignature>("fskin::_hash_encoding_backward");
+  return op.call(grad_features, positions, table, base_resolution, per_level_scale, output_mask);
+}
+
 }  // namespace
+
+TORCH_LIBRARY_FRAGMENT(fskin, m) {
+  m.def("hash_encoding(Tensor positions, Tensor table, int base_resolution, float per_level_scale) -> Tensor");
+  m.def(
+      "_hash_encoding_backward(Tensor grad_features, Tensor positions, Tensor table, int base_resolution, "
+      "float per_level_scale, bool[2] output_mask) -> (Tensor, Tensor)");
+}
+
+TORCH_LIBRARY_IMPL(fskin, CPU, m) {
+  m.impl("hash_encoding", TORCH_FN(hash_encoding_kernel));
+  m.impl("_hash_encoding_backward", TORCH_FN(hash_encoding_backward_kernel));
+}
+
+#ifdef FSKIN_WITH_CUDA
+TORCH_LIBRARY_IMPL(fskin, CUDA, m) {
+  m.impl("hash_encoding", TORCH_FN(hash_encoding_kernel));
+  m.impl("_hash_encoding_backward", TORCH_FN(hash_encoding_backward_kernel));
+}
+#endif
+
+TORCH_LIBRARY_IMPL(fskin, Autograd, m) {
+  m.impl("hash_encoding", TORCH_FN(hash_encoding_autograd));
+  m.impl("_hash_encoding_backward", TORCH_FN(hash_encoding_backward_autograd));
+}
 
 torch::Tensor hash_encoding(const torch::Tensor& positions, const torch::Tensor& table,
                             const HashEncodingOptions& options) {
   check_inputs(positions, table, options);
   expect_finite_on_cpu(positions, "hash_encoding: positions");
-  return HashEncodingFunction::apply(positions, table, options);
+  static const auto op = fskin_operator<EncodingSignature>("fskin::hash_encoding");
+  return op.call(positions, table, options.base_resolution, options.per_level_scale);
 }
 
 torch::Tensor hash_encoding_table(const HashEncodingOptions& options, torch::TensorOptions tensor_options) {

@@ -12,6 +12,7 @@
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
 #include "ops/common/dispatcher.h"
+#include "ops/ray_compositing/ray_compositing_op.h"
 #include "ops/common/run_on_device.h"
 #include "ops/ray_compositing/ray_compositing_kernel.h"
 
@@ -53,6 +54,8 @@ using CompositeBackwardSignature = std::tuple<torch::Tensor, torch::Tensor, torc
     const torch::Tensor&, const c10::optional<torch::Tensor>&, const torch::Tensor&, const torch::Tensor&,
     const torch::Tensor&, const torch::Tensor&, std::array<bool, 4>);
 
+}  // namespace
+
 // The CPU and CUDA keys' kernel. One function serves both: the devices share
 // the per-ray core and its launch arguments, and run_on_device picks the launch.
 std::tuple<torch::Tensor, torch::Tensor> composite_rays_kernel(const torch::Tensor& sigma, const torch::Tensor& rgb,
@@ -74,6 +77,8 @@ std::tuple<torch::Tensor, torch::Tensor> composite_rays_kernel(const torch::Tens
   }
   return {color, opacity};
 }
+
+namespace {
 
 // The analytic backward (a second front-to-back pass); output_mask says which
 // of (sigma, rgb, delta, background) need a gradient, the others come back undefined.
