@@ -1,0 +1,135 @@
+// Image datasets and avatars from images, as `fskin data images` and `fskin avatar`.
+#include "bindings.h"
+
+#include "fskin/body/body_model.h"
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+#include "fskin/data/pose_set.h"
+#include "fskin/radiance/avatar_config.h"
+#include "fskin/radiance/avatar_evaluation.h"
+#include "fskin/radiance/avatar_training.h"
+#include "fskin/radiance/image_dataset.h"
+#include "fskin/radiance/image_dataset_builder.h"
+#include "fskin/util/atomic_file.h"
+#include "fskin/util/blas_threads.h"
+#include "nlohmann/json.hpp"
+
+namespace fskin::python {
+
+void bind_avatars(py::module_& m) {
+  m.def(
+      "build_image_dataset",
+      [](const std::string& model_path, const torch::Tensor& poses, const std::string& out,
+         const std::optional<torch::Tensor>& held_out_poses, int size, int views, int held_out_views,
+         int novel_view_frames, bool monocular, bool progress) {
+        const auto model = BodyModel::load(model_path);
+        const auto as_set = [&](const torch::Tensor& p) {
+          fskin::PoseSet set;
+          set.poses = p.detach().to(torch::kCPU, torch::kFloat32).contiguous();
+          set.trans = torch::zeros({set.poses.size(0), 3});
+          set.joint_names = model.data().joint_names;
+          return set;
+        };
+        fskin::ImageDatasetOptions options;
+        options.out_dir = out;
+        options.width = options.height = size;
+        options.training_views = views;
+        options.held_out_views = held_out_views;
+        options.novel_view_frames = novel_view_frames;
+        options.monocular = monocular;
+        options.progress = progress;
+        options.model_source = std::filesystem::absolute(model_path).string();
+        options.poses_source = "python";
+        options.ood_poses_source = held_out_poses ? "python" : "";
+        py::gil_scoped_release release;
+        return fskin::build_image_dataset(model, as_set(poses), held_out_poses ? as_set(*held_out_poses) : fskin::PoseSet{},
+                                          options)
+            .to_string();
+      },
+      py::arg("model"), py::arg("poses"), py::arg("out"), py::arg("held_out_poses") = py::none(),
+      py::arg("size") = 256, py::arg("views") = 4, py::arg("held_out_views") = 4, py::arg("novel_view_frames") = 8,
+      py::arg("monocular") = false, py::arg("progress") = false,
+      "An image dataset as `fskin data images` writes it (PeopleSnapshot's layout), from a model file and poses "
+      "[N, J, 3]; returns its summary");
+  m.def(
+      "train_avatar",
+      [](const std::string& data, const std::string& out, int64_t steps, int64_t rays_per_step, bool resume,
+         uint64_t seed, bool progress, const std::vector<std::string>& settings, const std::string& config) {
+        fskin::AvatarTrainOptions options;
+        options.data_dir = data;
+        options.out_dir = out;
+        options.steps = steps;
+        options.rays_per_step = rays_per_step;
+        options.resume = resume;
+        options.seed = seed;
+        options.progress = progress;
+        // As `fskin avatar train`: the arguments, then the config file, then each setting.
+        if (!config.empty()) {
+          nlohmann::json document;
+          try {
+            document = nlohmann::json::parse(fskin::read_file(config));
+          } catch (const nlohmann::json::exception& e) {
+            fskin::fail("{}: {}", config, e.what());
+          }
+          options = fskin::avatar_options_from_document(document, options, config);
+        }
+        for (const auto& setting : settings) fskin::set_avatar_option(options, setting);
+        fskin::AvatarTrainSummary summary;
+        {
+          py::gil_scoped_release release;
+          const fskin::SingleThreadedBlasScope blas;  // as `fskin avatar train` runs
+          summary = fskin::train_avatar(options);
+        }
+        return py::dict(py::arg("first_step") = summary.first_step, py::arg("last_step") = summary.last_step,
+                        py::arg("seconds") = summary.seconds, py::arg("loss") = summary.final_loss,
+                        py::arg("batch_psnr") = summary.final_psnr);
+      },
+      py::arg("data"), py::arg("out"), py::arg("steps") = 2000, py::arg("rays_per_step") = 4096,
+      py::arg("resume") = false, py::arg("seed") = 0, py::arg("progress") = false,
+      py::arg("settings") = std::vector<std::string>{}, py::arg("config") = "",
+      "`fskin avatar train`: a radiance field through the Fast-SNARF deformer from an image dataset; every option "
+      "of the avatar's config (radiance/avatar_config.h) through settings ['model.occupancy_grid.every=50', ...] "
+      "and a config file");
+  m.def(
+      "evaluate_avatar",
+      [](const std::string& run, const std::string& split, const std::string& data, int64_t max_images) {
+        py::gil_scoped_release release;
+        auto trained = fskin::TrainedAvatar::load(run);
+        const fskin::ImageDataset dataset(data.empty() ? trained.options.data_dir : data);
+        const auto scores = fskin::evaluate_avatar(trained.avatar, dataset, split, max_images, false);
+        py::gil_scoped_acquire acquire;
+        return py::module_::import("json").attr("loads")(scores.to_json());
+      },
+      py::arg("run"), py::arg("split") = "novel_view", py::arg("data") = "", py::arg("max_images") = 0,
+      "`fskin avatar eval`: PSNR / SSIM per image of a split, as a dict (mean_psnr, mean_ssim, frames, ...)");
+  m.def(
+      "render_avatar",
+      [](const std::string& run, const torch::Tensor& bones, const torch::Tensor& intrinsic,
+         const torch::Tensor& extrinsic, int width, int height, std::vector<double> background) {
+        FSKIN_CHECK(background.size() == 3, "render_avatar: background must have 3 components");
+        fskin::PinholeCamera camera;
+        camera.width = width;
+        camera.height = height;
+        const auto k = intrinsic.to(torch::kCPU, torch::kFloat64).contiguous();
+        const auto e = extrinsic.to(torch::kCPU, torch::kFloat64).contiguous();
+        fskin::expect_shape(k, {3, 3}, "render_avatar: intrinsic");
+        fskin::expect_shape(e, {4, 4}, "render_avatar: extrinsic");
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) camera.intrinsic(r, c) = k[r][c].item<double>();
+        for (int r = 0; r < 4; ++r)
+          for (int c = 0; c < 4; ++c) camera.extrinsic(r, c) = e[r][c].item<double>();
+        py::gil_scoped_release release;
+        auto trained = fskin::TrainedAvatar::load(run);
+        const auto frame = trained.avatar->pose(bones.detach().to(torch::kCPU, torch::kFloat32));
+        const auto [rgb, opacity] =
+            trained.avatar->render_image(frame, camera, {background[0], background[1], background[2]});
+        py::gil_scoped_acquire acquire;
+        return py::make_tuple(rgb, opacity);
+      },
+      py::arg("run"), py::arg("bones"), py::arg("intrinsic"), py::arg("extrinsic"), py::arg("width"),
+      py::arg("height"), py::arg("background") = std::vector<double>{1.0, 1.0, 1.0},
+      "Render a trained avatar in bones [J, 4, 4] (canonical -> posed) by an OpenCV camera: (rgb [H, W, 3], "
+      "opacity [H, W])");
+}
+
+}  // namespace fskin::python

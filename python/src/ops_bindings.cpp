@@ -1,0 +1,57 @@
+// The fused ops' typed wrappers; the same ops are torch.ops.fskin.* (PyTorch's dispatcher).
+#include "bindings.h"
+
+#include "fskin/ops/hash_encoding.h"
+#include "fskin/ops/ray_compositing.h"
+
+namespace fskin::python {
+
+void bind_ops(py::module_& m) {
+  const auto encoding_options = [](int64_t levels, int64_t features, int64_t log2_size, int64_t base, double scale) {
+    fskin::HashEncodingOptions o;
+    o.levels = levels;
+    o.features_per_level = features;
+    o.log2_table_size = log2_size;
+    o.base_resolution = base;
+    o.per_level_scale = scale;
+    o.validate();
+    return o;
+  };
+  m.def(
+      "hash_encoding",
+      [encoding_options](const torch::Tensor& positions, const torch::Tensor& table, int64_t levels,
+                         int64_t features_per_level, int64_t log2_table_size, int64_t base_resolution,
+                         double per_level_scale) {
+        return fskin::hash_encoding(
+            positions, table,
+            encoding_options(levels, features_per_level, log2_table_size, base_resolution, per_level_scale));
+      },
+      py::arg("positions"), py::arg("table"), py::arg("levels") = 16, py::arg("features_per_level") = 2,
+      py::arg("log2_table_size") = 19, py::arg("base_resolution") = 16, py::arg("per_level_scale") = 1.5,
+      "instant-NGP's multi-resolution hash encoding (fused op): positions [N, 3] in the unit cube, table "
+      "[L, 2^T, F] -> features [N, L * F]; differentiable in the table and the positions");
+  m.def(
+      "hash_encoding_table",
+      [encoding_options](int64_t levels, int64_t features_per_level, int64_t log2_table_size,
+                         int64_t base_resolution, double per_level_scale, py::object dtype) {
+        auto options = torch::TensorOptions();
+        if (!dtype.is_none()) options = options.dtype(torch::python::detail::py_object_to_dtype(dtype));
+        return fskin::hash_encoding_table(
+            encoding_options(levels, features_per_level, log2_table_size, base_resolution, per_level_scale), options);
+      },
+      py::arg("levels") = 16, py::arg("features_per_level") = 2, py::arg("log2_table_size") = 19,
+      py::arg("base_resolution") = 16, py::arg("per_level_scale") = 1.5, py::arg("dtype") = py::none(),
+      "A hash-encoding table [L, 2^T, F] initialised as instant-NGP does: U(-1e-4, 1e-4)");
+  m.def(
+      "composite_rays",
+      [](const torch::Tensor& sigma, const torch::Tensor& rgb, const torch::Tensor& delta,
+         const torch::Tensor& background) {
+        const auto [color, opacity] = fskin::composite_rays(sigma, rgb, delta, background);
+        return py::make_tuple(color, opacity);
+      },
+      py::arg("sigma"), py::arg("rgb"), py::arg("delta"), py::arg("background"),
+      "Volume-rendering compositing (fused op): sigma [R, S], rgb [R, S, 3], delta [R, S], background [R, 3] -> "
+      "(color [R, 3], opacity [R]); differentiable in all four inputs");
+}
+
+}  // namespace fskin::python
