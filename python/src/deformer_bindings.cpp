@@ -38,9 +38,10 @@ fskin::StartBones parse_start_bones(const py::object& value) {
 
 // The search options both deformers take from Python: the paper's settings
 // scaled to the character, then the caller's start bones, iterations and
-// convergence tolerance (a residual norm).
+// convergence tolerance and divergence threshold (residual norms).
 fskin::DeformerOptions search_options(const char* who, fskin::DeformerOptions paper, const py::object& start_bones,
-                                      int max_iterations, double length_unit, std::optional<double> tolerance) {
+                                      int max_iterations, double length_unit, std::optional<double> tolerance,
+                                      std::optional<double> divergence = std::nullopt) {
   FSKIN_CHECK(length_unit > 0 && std::isfinite(length_unit), "{}: length_unit {} must be > 0", who, length_unit);
   FSKIN_CHECK(max_iterations >= 1, "{}: max_iterations {} must be >= 1", who, max_iterations);
   auto o = paper.scaled(length_unit);
@@ -49,6 +50,11 @@ fskin::DeformerOptions search_options(const char* who, fskin::DeformerOptions pa
   if (tolerance) {
     FSKIN_CHECK(*tolerance > 0 && std::isfinite(*tolerance), "{}: tolerance {} must be > 0", who, *tolerance);
     o.converge_sq = *tolerance * *tolerance;
+  }
+  if (divergence) {
+    FSKIN_CHECK(std::isfinite(*divergence) && *divergence * *divergence > o.converge_sq,
+                "{}: divergence {} must be finite and above the tolerance", who, *divergence);
+    o.diverge_sq = *divergence * *divergence;
   }
   return o;
 }
@@ -60,21 +66,23 @@ fskin::DeformerOptions search_options(const char* who, fskin::DeformerOptions pa
 class PyFastSnarf {
  public:
   PyFastSnarf(const torch::Tensor& grid_weights, const VoxelBox& box, const py::object& start_bones,
-              int max_iterations, bool exact_gradient, double length_unit, std::optional<double> tolerance)
+              int max_iterations, bool exact_gradient, double length_unit, std::optional<double> tolerance,
+              std::optional<double> divergence)
       : field_(std::make_shared<fskin::CallerGridSkinningField>(grid_weights, box)),
-        deformer_(field_, options(box, start_bones, max_iterations, exact_gradient, length_unit, tolerance)),
-        arguments_(py::make_tuple(start_bones, max_iterations, exact_gradient, length_unit, tolerance)) {}
+        deformer_(field_,
+                  options(box, start_bones, max_iterations, exact_gradient, length_unit, tolerance, divergence)),
+        arguments_(py::make_tuple(start_bones, max_iterations, exact_gradient, length_unit, tolerance, divergence)) {}
 
   // pickle / copy.deepcopy: the grid (detached), the box and the constructor's search arguments.
   py::tuple state() const { return py::make_tuple(field_->grid_weights().detach(), field_->box(), arguments_); }
   static PyFastSnarf from_state(const py::tuple& state) {
     FSKIN_CHECK(state.size() == 3, "FastSnarfDeformer: a pickled state has 3 parts, got {}", state.size());
     const auto arguments = state[2].cast<py::tuple>();
-    FSKIN_CHECK(arguments.size() == 5, "FastSnarfDeformer: pickled search arguments have 5 parts, got {}",
+    FSKIN_CHECK(arguments.size() == 6, "FastSnarfDeformer: pickled search arguments have 6 parts, got {}",
                 arguments.size());
     return PyFastSnarf(state[0].cast<torch::Tensor>(), state[1].cast<VoxelBox>(), arguments[0],
                        arguments[1].cast<int>(), arguments[2].cast<bool>(), arguments[3].cast<double>(),
-                       arguments[4].cast<std::optional<double>>());
+                       arguments[4].cast<std::optional<double>>(), arguments[5].cast<std::optional<double>>());
   }
 
   std::tuple<torch::Tensor, torch::Tensor> forward(const torch::Tensor& x_posed, const torch::Tensor& bones) {
@@ -91,16 +99,17 @@ class PyFastSnarf {
 
  private:
   static fskin::DeformerOptions options(const VoxelBox& box, const py::object& start_bones, int max_iterations,
-                                        bool exact_gradient, double length_unit, std::optional<double> tolerance) {
+                                        bool exact_gradient, double length_unit, std::optional<double> tolerance,
+                                        std::optional<double> divergence) {
     box.validate("FastSnarfDeformer: box");
     auto o = search_options("FastSnarfDeformer", fskin::DeformerOptions::fast_snarf(), start_bones, max_iterations,
-                            length_unit, tolerance);
+                            length_unit, tolerance, divergence);
     if (exact_gradient) o.gradient = fskin::GradientMode::Exact;
     return o;
   }
   std::shared_ptr<fskin::CallerGridSkinningField> field_;
   fskin::FastSnarfDeformer deformer_;
-  py::tuple arguments_;  // start_bones, max_iterations, exact_gradient, length_unit, tolerance
+  py::tuple arguments_;  // start_bones, max_iterations, exact_gradient, length_unit, tolerance, divergence
 };
 
 // SNARF's deformer over fskin's skinning MLP, whose parameters the caller
@@ -157,12 +166,14 @@ void bind_deformers(py::module_& m) {
                           "Fast-SNARF's deformer over a voxel skinning grid [D, H, W, J] (weights summing to 1); a grid "
                           "that requires grad receives the roots' implicit gradient")
       .def(py::init<const torch::Tensor&, const VoxelBox&, const py::object&, int, bool, double,
-                    std::optional<double>>(),
+                    std::optional<double>, std::optional<double>>(),
            py::arg("grid_weights"), py::arg("box"), py::arg("start_bones") = py::none(), py::arg("max_iterations") = 10,
            py::arg("exact_gradient") = false, py::arg("length_unit") = 1.0, py::arg("tolerance") = py::none(),
+           py::arg("divergence") = py::none(),
            "start_bones: None/'all', an int k (per point, the k bones with the largest weight), or a list of bones; "
            "length_unit scales the thresholds for characters not 1.7 m long (character_size / 1.7); tolerance: "
-           "the residual norm a root converges to (default Fast-SNARF's 1e-4 times length_unit)")
+           "the residual norm a root converges to (default Fast-SNARF's 1e-4 times length_unit); divergence: the "
+           "residual norm at which a candidate is dropped (default 0.5 times length_unit; the reference's dvg)")
       // The search runs LibTorch's autograd (exact gradients) and threads: without the GIL.
       .def("forward", &PyFastSnarf::forward, py::arg("x_posed"), py::arg("bones"),
            py::call_guard<py::gil_scoped_release>(),

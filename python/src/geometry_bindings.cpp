@@ -32,7 +32,12 @@ void bind_geometry(py::module_& m) {
                              [](const VoxelBox& b) {
                                return py::make_tuple(b.shape.depth, b.shape.height, b.shape.width);
                              })
-      .def("contains", &VoxelBox::contains, py::arg("points"))
+      .def_property_readonly(
+          "offset", [](const VoxelBox& b) { return b.offset; },
+          "(x, y, z) added to canonical points before scaling: grid coordinates u = (x + offset) * scale")
+      .def_property_readonly(
+          "scale", [](const VoxelBox& b) { return b.scale; }, "(x, y, z): u = (x + offset) * scale, in [-1, 1]")
+      .def("contains", &VoxelBox::contains, py::arg("points"), "Whether points [..., 3] lie inside the box -> bool [...]")
       .def("voxel_centres", [](const VoxelBox& b) { return b.voxel_centres(); },
            "Canonical positions of the voxel centres [D, H, W, 3]")
       .def("__repr__",

@@ -492,3 +492,17 @@ def test_body_model_forward_keeps_float64_and_its_gradients():
     assert single.dtype == torch.float32 and torch.allclose(single.double(), vertices, atol=1e-5)
     few = torch.arange(0, body.num_vertices, 997)
     assert torch.autograd.gradcheck(lambda p, t: body.forward(p, trans=t)[0][:, few], (pose, trans))
+
+
+def test_the_fast_snarf_deformer_takes_a_divergence_threshold_above_its_tolerance():
+    body = fskin.humanoid(resolution=40)
+    box = fskin.VoxelBox.fit(body.v_template, 16)
+    grid = fskin.diffuse_weights_to_grid(body.v_template, body.weights, box)
+    with pytest.raises(fskin.Error, match="divergence"):
+        fskin.FastSnarfDeformer(grid, box, tolerance=1e-3, divergence=1e-4)
+    pose = torch.zeros(1, body.num_joints, 3)
+    pose[0, 1:, 2] = 0.4  # every joint bent: most starts begin far from their root
+    verts, _, bones = body.forward(pose)
+    strict = fskin.FastSnarfDeformer(grid, box, divergence=1e-3)  # drops candidates that start far away
+    loose = fskin.FastSnarfDeformer(grid, box)
+    assert strict.forward(verts, bones)[1].sum() < loose.forward(verts, bones)[1].sum()
