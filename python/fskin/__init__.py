@@ -14,7 +14,6 @@ from ._fskin import (  # noqa: F401
     BodyModel,
     Dataset,
     Error,
-    FastSnarfDeformer,
     Pin,
     Run,
     SnarfDeformer,
@@ -43,6 +42,7 @@ from ._fskin import (  # noqa: F401
     write_mesh,
 )
 from ._fskin import openblas_core, recommended_openblas_core  # noqa: F401
+from .deformers import FastSnarfDeformer  # noqa: F401  (a torch.nn.Module over the C++ search)
 
 # OpenBLAS picks its kernels once, when LibTorch loads it: a Python process
 # cannot switch them as the fskin CLI does (util/runtime_restart.h), so say so.

@@ -506,3 +506,35 @@ def test_the_fast_snarf_deformer_takes_a_divergence_threshold_above_its_toleranc
     strict = fskin.FastSnarfDeformer(grid, box, divergence=1e-3)  # drops candidates that start far away
     loose = fskin.FastSnarfDeformer(grid, box)
     assert strict.forward(verts, bones)[1].sum() < loose.forward(verts, bones)[1].sum()
+
+
+def test_the_fast_snarf_deformer_is_a_torch_module():
+    import copy
+    import io
+    body = fskin.humanoid(resolution=40)
+    box = fskin.VoxelBox.fit(body.v_template, 16)
+    grid = fskin.diffuse_weights_to_grid(body.v_template, body.weights, box)
+    deformer = fskin.FastSnarfDeformer(grid, box, start_bones=4)
+    assert isinstance(deformer, torch.nn.Module)
+    assert list(deformer.state_dict()) == ["grid_weights"] and "start_bones=4" in repr(deformer)
+    verts, _, bones = body.forward(torch.zeros(1, body.num_joints, 3))
+    roots, valid = deformer(verts, bones)  # callable: forward
+    # .double() moves the grid, and the search follows it.
+    roots64, valid64 = deformer.double()(verts.double(), bones.double())
+    assert deformer.grid_weights.dtype == torch.float64 and roots64.dtype == torch.float64
+    assert torch.equal(valid64, valid)
+    buffer = io.BytesIO()
+    torch.save(deformer, buffer)
+    buffer.seek(0)
+    loaded = torch.load(buffer)
+    assert torch.equal(loaded(verts.double(), bones.double())[0], roots64)
+    clone = copy.deepcopy(deformer)
+    assert torch.equal(clone(verts.double(), bones.double())[0], roots64)
+    clone.load_state_dict({"grid_weights": torch.zeros_like(deformer.grid_weights) + 1.0 / body.num_joints})
+    assert not torch.equal(clone.weights(verts.double())[0], deformer.weights(verts.double())[0])
+    # A parameter grid is a parameter, and the roots' gradient reaches it.
+    learned = fskin.FastSnarfDeformer(torch.nn.Parameter(grid.double()), box, start_bones=4)
+    assert [name for name, _ in learned.named_parameters()] == ["grid_weights"]
+    roots, valid = learned(verts.double(), bones.double())
+    (roots * valid[..., None]).sum().backward()
+    assert learned.grid_weights.grad is not None and learned.grid_weights.grad.abs().sum() > 0
