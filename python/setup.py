@@ -44,7 +44,7 @@ class CMakeBuild(build_ext):
 setup(
     version=version(),
     packages=["fskin", "fskin.compat"],
-    package_data={"fskin": ["py.typed"]},
+    package_data={"fskin": ["py.typed", "_fskin.pyi"]},
     ext_modules=[Extension("fskin._fskin", sources=[])],
     cmdclass={"build_ext": CMakeBuild},
     zip_safe=False,

@@ -52,15 +52,21 @@ void bind_body(py::module_& m) {
             d.joint_names = state["joint_names"].cast<std::vector<std::string>>();
             return BodyModel(std::move(d), "BodyModel (unpickled)");
           }))
-      .def("save", &BodyModel::save, py::arg("path"))
-      .def_property_readonly("num_joints", &BodyModel::num_joints)
-      .def_property_readonly("num_vertices", &BodyModel::num_vertices)
-      .def_property_readonly("joint_names", [](const BodyModel& b) { return b.data().joint_names; })
-      .def_property_readonly("parents", [](const BodyModel& b) { return b.data().parents; })
-      .def_property_readonly("v_template", [](const BodyModel& b) { return b.data().v_template; })
-      .def_property_readonly("faces", [](const BodyModel& b) { return b.data().faces; })
-      .def_property_readonly("weights", [](const BodyModel& b) { return b.data().weights; })
-      .def_property_readonly("rest_joints", [](const BodyModel& b) { return b.skeleton().rest_joints; })
+      .def("save", &BodyModel::save, py::arg("path"), "Write the model as fskin's .npz (BodyModel.load reads it)")
+      .def_property_readonly("num_joints", &BodyModel::num_joints, "J, the skeleton's joints (bones)")
+      .def_property_readonly("num_vertices", &BodyModel::num_vertices, "V, the template's vertices")
+      .def_property_readonly(
+          "joint_names", [](const BodyModel& b) { return b.data().joint_names; }, "The J joint names, in order")
+      .def_property_readonly(
+          "parents", [](const BodyModel& b) { return b.data().parents; }, "Each joint's parent index (-1 for the root)")
+      .def_property_readonly(
+          "v_template", [](const BodyModel& b) { return b.data().v_template; }, "Template vertices [V, 3] at rest")
+      .def_property_readonly(
+          "faces", [](const BodyModel& b) { return b.data().faces; }, "Triangles [F, 3] (vertex indices)")
+      .def_property_readonly(
+          "weights", [](const BodyModel& b) { return b.data().weights; }, "Skinning weights [V, J], rows summing to 1")
+      .def_property_readonly(
+          "rest_joints", [](const BodyModel& b) { return b.skeleton().rest_joints; }, "Joint positions [J, 3] at rest")
       .def(
           "forward",
           [](const BodyModel& b, const torch::Tensor& pose, std::optional<torch::Tensor> betas,

@@ -185,7 +185,7 @@ void bind_deformers(py::module_& m) {
       .def_property("grid_weights", &PyFastSnarf::grid_weights, &PyFastSnarf::set_grid_weights,
                     "The skinning grid [D, H, W, J] the search reads; set a new one (with its graph) before each "
                     "forward to learn it")
-      .def_property_readonly("box", &PyFastSnarf::box)
+      .def_property_readonly("box", &PyFastSnarf::box, "The VoxelBox the grid covers")
       .def(py::pickle([](const PyFastSnarf& d) { return d.state(); }, &PyFastSnarf::from_state));
 
   py::class_<PySnarf>(m, "SnarfDeformer",
@@ -200,8 +200,9 @@ void bind_deformers(py::module_& m) {
            "x_posed [B, N, 3], bones [B, J, 4, 4] -> (x_canonical [B, N, I, 3], valid [B, N, I]); exact implicit "
            "gradient to the points, the bones and the MLP")
       .def("deform", &PySnarf::deform, py::arg("x_canonical"), py::arg("bones"),
-           py::call_guard<py::gil_scoped_release>())
-      .def("weights", &PySnarf::weights, py::arg("x_canonical"))
+           py::call_guard<py::gil_scoped_release>(),
+           "LBS of canonical points [B, N, 3] with the MLP's weights -> posed [B, N, 3]")
+      .def("weights", &PySnarf::weights, py::arg("x_canonical"), "Skinning weights at canonical points [..., J]")
       .def("parameters", &PySnarf::parameters, "The MLP's parameters (tensors shared with the deformer)")
       .def("to", &PySnarf::to_dtype, py::arg("dtype"), "'float32' or 'float64' (gradcheck)");
 }

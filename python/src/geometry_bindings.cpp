@@ -31,7 +31,8 @@ void bind_geometry(py::module_& m) {
       .def_property_readonly("shape",
                              [](const VoxelBox& b) {
                                return py::make_tuple(b.shape.depth, b.shape.height, b.shape.width);
-                             })
+                             },
+                             "Voxels along (z, y, x): (D, H, W)")
       .def_property_readonly(
           "offset", [](const VoxelBox& b) { return b.offset; },
           "(x, y, z) added to canonical points before scaling: grid coordinates u = (x + offset) * scale")
@@ -45,7 +46,8 @@ void bind_geometry(py::module_& m) {
              return fmt::format("VoxelBox(shape=({}, {}, {}), offset=({:g}, {:g}, {:g}), scale=({:g}, {:g}, {:g}))",
                                 b.shape.depth, b.shape.height, b.shape.width, b.offset[0], b.offset[1], b.offset[2],
                                 b.scale[0], b.scale[1], b.scale[2]);
-           })
+           },
+           "VoxelBox(shape=(D, H, W), offset=(x, y, z), scale=(x, y, z))")
       .def(py::pickle(
           [](const VoxelBox& b) {
             return py::make_tuple(b.offset, b.scale, py::make_tuple(b.shape.depth, b.shape.height, b.shape.width));

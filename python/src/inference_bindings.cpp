@@ -140,13 +140,13 @@ void bind_inference(py::module_& m) {
            py::call_guard<py::gil_scoped_release>(),
            "data: the dataset (default: the one the run trained on); checkpoint: latest, best or a step; device: "
            "cpu, cuda or cuda:N")
-      .def_property_readonly("method", &PyRun::method)
-      .def_property_readonly("step", &PyRun::step)
-      .def_property_readonly("joint_names", &PyRun::joint_names)
-      .def_property_readonly("parents", &PyRun::parents)
+      .def_property_readonly("method", &PyRun::method, "snarf, fast-snarf, ins or a baseline")
+      .def_property_readonly("step", &PyRun::step, "The loaded checkpoint's training step")
+      .def_property_readonly("joint_names", &PyRun::joint_names, "The skeleton's J joint names")
+      .def_property_readonly("parents", &PyRun::parents, "Each joint's parent index (-1 for the root)")
       .def_property_readonly("canonical_joints", &PyRun::canonical_joints, "[J, 3]")
       .def_property_readonly("canonical_pose", &PyRun::canonical_pose, "[J, 3] axis-angle")
-      .def_property_readonly("device", &PyRun::device)
+      .def_property_readonly("device", &PyRun::device, "The device the model runs on")
       .def("bone_transforms", &PyRun::bone_transforms, py::arg("poses"), py::arg("trans") = py::none(),
            py::arg("body_model") = "", py::call_guard<py::gil_scoped_release>(),
            "Axis-angle poses [N, J, 3] (root translations [N, 3]) -> bones [N, J, 4, 4] canonical -> posed, as the "

@@ -69,7 +69,10 @@ void bind_invertible(py::module_& m) {
       .def(py::init<int64_t, int64_t, int64_t, int64_t, int64_t, int64_t, bool, double, double>(),
            py::arg("num_layers") = 6, py::arg("embedding_dim") = 16, py::arg("space_hidden_dim") = 32,
            py::arg("space_layers") = 2, py::arg("map_hidden_dim") = 8, py::arg("map_hidden_layers") = 2,
-           py::arg("linear_output") = true, py::arg("first_omega") = 30.0, py::arg("hidden_omega") = 30.0)
+           py::arg("linear_output") = true, py::arg("first_omega") = 30.0, py::arg("hidden_omega") = 30.0,
+           "num_layers coupling layers over pose embeddings of embedding_dim; each a SIREN over space "
+           "(space_hidden_dim x space_layers, first / hidden omega) and a map MLP (map_hidden_dim x "
+           "map_hidden_layers) (INS eq. 13-14)")
       .def("forward", &PyPin::forward, py::arg("x"), py::arg("embedding"), py::call_guard<py::gil_scoped_release>(),
            "PIN(x [B, N, 3], z [B, E]) -> [B, N, 3], differentiable")
       .def("inverse", &PyPin::inverse, py::arg("y"), py::arg("embedding"), py::call_guard<py::gil_scoped_release>(),
@@ -77,7 +80,7 @@ void bind_invertible(py::module_& m) {
       .def("fused", &PyPin::fused, py::arg("x"), py::arg("embedding"), py::arg("inverse") = false,
            py::call_guard<py::gil_scoped_release>(),
            "The fused inference kernel (float32, no gradients): the same map in one pass per point")
-      .def("parameters", &PyPin::parameters)
+      .def("parameters", &PyPin::parameters, "The network's parameters (tensors shared with it) for torch.optim")
       .def("to", &PyPin::to, py::arg("target"), "'float32', 'float64' or a device ('cpu', 'cuda')");
 }
 

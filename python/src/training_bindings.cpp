@@ -147,7 +147,7 @@ void bind_training(py::module_& m) {
            }),
            py::arg("dir"), py::arg("split") = "train", py::arg("with_meshes") = false,
            py::call_guard<py::gil_scoped_release>(), "split: train, val, test_within or test_ood")
-      .def("__len__", &fskin::Dataset::size)
+      .def("__len__", &fskin::Dataset::size, "The split's number of frames")
       .def(
           "__getitem__",
           [](const fskin::Dataset& d, int64_t i) {
@@ -158,10 +158,12 @@ void bind_training(py::module_& m) {
           py::arg("index"),
           "A frame: points [N, 3], occupancy [N], num_uniform (the first points are uniform in the box, the rest "
           "near the surface), bone_transforms [J, 4, 4], pose [J, 3], trans [3] (and vertices, faces)")
-      .def_property_readonly("split", &fskin::Dataset::split)
-      .def_property_readonly("joint_names", &fskin::Dataset::joint_names)
-      .def_property_readonly("parents", &fskin::Dataset::parents)
-      .def_property_readonly("canonical", [](const fskin::Dataset& d) { return frame_dict(d.canonical()); });
+      .def_property_readonly("split", &fskin::Dataset::split, "train, val, test_within or test_ood")
+      .def_property_readonly("joint_names", &fskin::Dataset::joint_names, "The skeleton's J joint names")
+      .def_property_readonly("parents", &fskin::Dataset::parents, "Each joint's parent index (-1 for the root)")
+      .def_property_readonly(
+          "canonical", [](const fskin::Dataset& d) { return frame_dict(d.canonical()); },
+          "The canonical frame (the rest pose's points, occupancy and bones), as a frame dict");
 }
 
 }  // namespace fskin::python
