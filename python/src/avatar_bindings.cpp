@@ -10,9 +10,7 @@
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/radiance/image_dataset.h"
 #include "fskin/radiance/image_dataset_builder.h"
-#include "fskin/util/atomic_file.h"
 #include "fskin/util/blas_threads.h"
-#include "nlohmann/json.hpp"
 
 namespace fskin::python {
 
@@ -63,17 +61,7 @@ void bind_avatars(py::module_& m) {
         options.resume = resume;
         options.seed = seed;
         options.progress = progress;
-        // As `fskin avatar train`: the arguments, then the config file, then each setting.
-        if (!config.empty()) {
-          nlohmann::json document;
-          try {
-            document = nlohmann::json::parse(fskin::read_file(config));
-          } catch (const nlohmann::json::exception& e) {
-            fskin::fail("{}: {}", config, e.what());
-          }
-          options = fskin::avatar_options_from_document(document, options, config);
-        }
-        for (const auto& setting : settings) fskin::set_avatar_option(options, setting);
+        options = fskin::configure_avatar_options(options, config, settings);  // as `fskin avatar train`
         fskin::AvatarTrainSummary summary;
         {
           py::gil_scoped_release release;

@@ -91,17 +91,7 @@ void register_avatar(CLI::App& app) {
   t->add_flag("--quiet", *quiet, "no progress bar");
   t->callback([train, quiet, config_file, assignments] {
     StopSignal stop;
-    AvatarTrainOptions options = *train;
-    if (!config_file->empty()) {
-      nlohmann::json document;
-      try {
-        document = nlohmann::json::parse(read_file(*config_file));
-      } catch (const nlohmann::json::exception& e) {
-        fail("{}: {}", *config_file, e.what());
-      }
-      options = avatar_options_from_document(document, options, *config_file);
-    }
-    for (const auto& assignment : *assignments) set_avatar_option(options, assignment);
+    AvatarTrainOptions options = configure_avatar_options(*train, *config_file, *assignments);
     options.progress = !*quiet;
     options.stop = &stop;
     // Launched as one of several ranks (torchrun's variables): data-parallel.

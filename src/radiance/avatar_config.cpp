@@ -173,4 +173,20 @@ void set_avatar_option(AvatarTrainOptions& options, const std::string& assignmen
   options = avatar_options_from_document(assignment_overlay(assignment, "--set"), options, context);
 }
 
+AvatarTrainOptions configure_avatar_options(const AvatarTrainOptions& base, const std::string& config_path,
+                                            const std::vector<std::string>& settings) {
+  AvatarTrainOptions options = base;
+  if (!config_path.empty()) {
+    nlohmann::json document;
+    try {
+      document = nlohmann::json::parse(read_file(config_path));
+    } catch (const nlohmann::json::exception& e) {
+      fail("{}: {}", config_path, e.what());
+    }
+    options = avatar_options_from_document(document, options, config_path);
+  }
+  for (const auto& setting : settings) set_avatar_option(options, setting);
+  return options;
+}
+
 }  // namespace fskin

@@ -46,4 +46,10 @@ AvatarTrainOptions read_avatar_run_config(const std::string& path, const std::st
 // One `--set a.b.c=v` on `options`.
 void set_avatar_option(AvatarTrainOptions& options, const std::string& assignment);
 
+// What `fskin avatar train` (and Python's train_avatar) trains with: `base`
+// (the command's arguments), then the JSON config file at `config_path`
+// (none when empty), then each `a.b.c=v` setting, in that order.
+AvatarTrainOptions configure_avatar_options(const AvatarTrainOptions& base, const std::string& config_path,
+                                            const std::vector<std::string>& settings);
+
 }  // namespace fskin
