@@ -16,7 +16,6 @@ from ._fskin import (  # noqa: F401
     Error,
     Pin,
     Run,
-    SnarfDeformer,
     VoxelBox,
     __version__,
     build_dataset,
@@ -42,7 +41,7 @@ from ._fskin import (  # noqa: F401
     write_mesh,
 )
 from ._fskin import openblas_core, recommended_openblas_core  # noqa: F401
-from .deformers import FastSnarfDeformer  # noqa: F401  (a torch.nn.Module over the C++ search)
+from .deformers import FastSnarfDeformer, SnarfDeformer  # noqa: F401  (torch.nn.Modules over the C++ search)
 
 # OpenBLAS picks its kernels once, when LibTorch loads it: a Python process
 # cannot switch them as the fskin CLI does (util/runtime_restart.h), so say so.

@@ -293,7 +293,7 @@ def test_snarf_deformer_roots_gradients_and_learning():
     error = ((roots - xc.unsqueeze(2)).norm(dim=-1) + (~valid) * 1e9).min(-1).values
     assert (error < 1e-4).float().mean() > 0.95
     # The implicit gradient reaches the MLP: one optimiser step changes the roots.
-    params = deformer.parameters()
+    params = list(deformer.parameters())
     optimizer = torch.optim.Adam(params, lr=1e-2)
     loss = (roots * valid.unsqueeze(-1)).square().sum()
     loss.backward()
@@ -538,3 +538,35 @@ def test_the_fast_snarf_deformer_is_a_torch_module():
     roots, valid = learned(verts.double(), bones.double())
     (roots * valid[..., None]).sum().backward()
     assert learned.grid_weights.grad is not None and learned.grid_weights.grad.abs().sum() > 0
+
+
+def test_the_snarf_deformer_is_a_torch_module_whose_parameters_are_the_searchs():
+    import copy
+    import io
+    torch.manual_seed(0)
+    extent = canonical_points(50, torch.float32)[0]
+    deformer = fskin.SnarfDeformer(2, extent, hidden_dim=16, hidden_layers=2)
+    assert isinstance(deformer, torch.nn.Module) and "hidden_dim=16" in repr(deformer)
+    # The module's parameters are the C++ MLP's tensors themselves.
+    assert all(a is b for a, b in zip(deformer.parameters(), deformer._native.parameters()))
+    bones = bend(0.7, torch.float32)
+    xd = deformer.deform(canonical_points(40, torch.float32), bones).detach()
+    roots, valid = deformer(xd, bones)
+    (roots * valid.unsqueeze(-1)).square().sum().backward()
+    assert all(p.grad is not None for p in deformer.parameters())  # the search's own tensors
+    # state_dict / load_state_dict reach the search: another deformer's state gives its weights.
+    torch.manual_seed(1)
+    other = fskin.SnarfDeformer(2, extent, hidden_dim=16, hidden_layers=2)
+    clone = copy.deepcopy(deformer)
+    assert torch.equal(clone(xd, bones)[0], roots)
+    assert not torch.allclose(clone.weights(xd), other.weights(xd))
+    clone.load_state_dict(other.state_dict())
+    assert torch.equal(clone.weights(xd), other.weights(xd))
+    deformer.double()
+    assert all(p.dtype == torch.float64 for p in deformer.parameters())
+    assert deformer.forward(xd.double(), bones.double())[0].dtype == torch.float64
+    buffer = io.BytesIO()
+    torch.save(deformer, buffer)
+    buffer.seek(0)
+    loaded = torch.load(buffer)
+    assert torch.equal(loaded.weights(xd.double()), deformer.weights(xd.double()))
