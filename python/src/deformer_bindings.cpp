@@ -63,14 +63,34 @@ fskin::DeformerOptions search_options(const char* who, fskin::DeformerOptions pa
 // grid, or one computed with a graph (a softmax of a voxel parameter, an MLP
 // at the voxel centres) and set again before each search, so the roots'
 // implicit gradient reaches what computed it.
-class PyFastSnarf {
+// What both deformers give Python: the search, forward skinning and the
+// weights of the field they own.
+template <typename Field, typename Deformer>
+class PyDeformer {
+ public:
+  PyDeformer(std::shared_ptr<Field> field, const fskin::DeformerOptions& options)
+      : field_(std::move(field)), deformer_(field_, options) {}
+
+  std::tuple<torch::Tensor, torch::Tensor> forward(const torch::Tensor& x_posed, const torch::Tensor& bones) {
+    const auto out = deformer_.forward(x_posed, bones);
+    return {out.x_canonical, out.valid};
+  }
+  torch::Tensor deform(const torch::Tensor& x_canonical, const torch::Tensor& bones) {
+    return deformer_.deform(x_canonical, bones);
+  }
+  torch::Tensor weights(const torch::Tensor& x_canonical) { return field_->weights(x_canonical); }
+ protected:
+  std::shared_ptr<Field> field_;
+  Deformer deformer_;
+};
+
+class PyFastSnarf : public PyDeformer<fskin::CallerGridSkinningField, fskin::FastSnarfDeformer> {
  public:
   PyFastSnarf(const torch::Tensor& grid_weights, const VoxelBox& box, const py::object& start_bones,
               int max_iterations, bool exact_gradient, double length_unit, std::optional<double> tolerance,
               std::optional<double> divergence)
-      : field_(std::make_shared<fskin::CallerGridSkinningField>(grid_weights, box)),
-        deformer_(field_,
-                  options(box, start_bones, max_iterations, exact_gradient, length_unit, tolerance, divergence)),
+      : PyDeformer(std::make_shared<fskin::CallerGridSkinningField>(grid_weights, box),
+                   options(box, start_bones, max_iterations, exact_gradient, length_unit, tolerance, divergence)),
         arguments_(py::make_tuple(start_bones, max_iterations, exact_gradient, length_unit, tolerance, divergence)) {}
 
   // pickle / copy.deepcopy: the grid (detached), the box and the constructor's search arguments.
@@ -85,14 +105,6 @@ class PyFastSnarf {
                        arguments[4].cast<std::optional<double>>(), arguments[5].cast<std::optional<double>>());
   }
 
-  std::tuple<torch::Tensor, torch::Tensor> forward(const torch::Tensor& x_posed, const torch::Tensor& bones) {
-    const auto out = deformer_.forward(x_posed, bones);
-    return {out.x_canonical, out.valid};
-  }
-  torch::Tensor deform(const torch::Tensor& x_canonical, const torch::Tensor& bones) {
-    return deformer_.deform(x_canonical, bones);
-  }
-  torch::Tensor weights(const torch::Tensor& x_canonical) { return field_->weights(x_canonical); }
   torch::Tensor grid_weights() const { return field_->grid_weights(); }
   void set_grid_weights(const torch::Tensor& grid) { field_->set_grid(grid); }
   const VoxelBox& box() const { return field_->box(); }
@@ -107,29 +119,19 @@ class PyFastSnarf {
     if (exact_gradient) o.gradient = fskin::GradientMode::Exact;
     return o;
   }
-  std::shared_ptr<fskin::CallerGridSkinningField> field_;
-  fskin::FastSnarfDeformer deformer_;
   py::tuple arguments_;  // start_bones, max_iterations, exact_gradient, length_unit, tolerance, divergence
 };
 
 // SNARF's deformer over fskin's skinning MLP, whose parameters the caller
 // optimises (torch.optim on `parameters()`): the roots' implicit gradient
 // reaches them (SNARF eq. 14).
-class PySnarf {
+class PySnarf : public PyDeformer<fskin::MlpSkinningField, fskin::SnarfDeformer> {
  public:
   PySnarf(int64_t num_bones, const torch::Tensor& extent, int64_t hidden_dim, int64_t hidden_layers,
           const py::object& start_bones, int max_iterations, double length_unit, std::optional<double> tolerance)
-      : field_(std::make_shared<fskin::MlpSkinningField>(field_options(num_bones, extent, hidden_dim, hidden_layers))),
-        deformer_(field_, options(start_bones, max_iterations, length_unit, tolerance)) {}
+      : PyDeformer(std::make_shared<fskin::MlpSkinningField>(field_options(num_bones, extent, hidden_dim, hidden_layers)),
+                   options(start_bones, max_iterations, length_unit, tolerance)) {}
 
-  std::tuple<torch::Tensor, torch::Tensor> forward(const torch::Tensor& x_posed, const torch::Tensor& bones) {
-    const auto out = deformer_.forward(x_posed, bones);
-    return {out.x_canonical, out.valid};
-  }
-  torch::Tensor deform(const torch::Tensor& x_canonical, const torch::Tensor& bones) {
-    return deformer_.deform(x_canonical, bones);
-  }
-  torch::Tensor weights(const torch::Tensor& x_canonical) { return field_->weights(x_canonical); }
   std::vector<torch::Tensor> parameters() { return field_->parameters(); }
   void to_dtype(const std::string& dtype) {
     FSKIN_CHECK(dtype == "float32" || dtype == "float64", "SnarfDeformer.to: dtype '{}' is not float32 or float64",
@@ -155,8 +157,6 @@ class PySnarf {
     return search_options("SnarfDeformer", fskin::DeformerOptions::snarf(), start_bones, max_iterations, length_unit,
                           tolerance);
   }
-  std::shared_ptr<fskin::MlpSkinningField> field_;
-  fskin::SnarfDeformer deformer_;
 };
 
 }  // namespace
