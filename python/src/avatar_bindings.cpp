@@ -95,22 +95,10 @@ void bind_avatars(py::module_& m) {
       [](const std::string& run, const torch::Tensor& bones, const torch::Tensor& intrinsic,
          const torch::Tensor& extrinsic, int width, int height, std::vector<double> background) {
         FSKIN_CHECK(background.size() == 3, "render_avatar: background must have 3 components");
-        fskin::PinholeCamera camera;
-        camera.width = width;
-        camera.height = height;
-        const auto k = intrinsic.to(torch::kCPU, torch::kFloat64).contiguous();
-        const auto e = extrinsic.to(torch::kCPU, torch::kFloat64).contiguous();
-        fskin::expect_shape(k, {3, 3}, "render_avatar: intrinsic");
-        fskin::expect_shape(e, {4, 4}, "render_avatar: extrinsic");
-        for (int r = 0; r < 3; ++r)
-          for (int c = 0; c < 3; ++c) camera.intrinsic(r, c) = k[r][c].item<double>();
-        for (int r = 0; r < 4; ++r)
-          for (int c = 0; c < 4; ++c) camera.extrinsic(r, c) = e[r][c].item<double>();
+        const auto camera = fskin::PinholeCamera::from_matrices(intrinsic, extrinsic, width, height, "render_avatar");
         py::gil_scoped_release release;
-        auto trained = fskin::TrainedAvatar::load(run);
-        const auto frame = trained.avatar->pose(bones.detach().to(torch::kCPU, torch::kFloat32));
         const auto [rgb, opacity] =
-            trained.avatar->render_image(frame, camera, {background[0], background[1], background[2]});
+            fskin::TrainedAvatar::load(run).render(bones, camera, {background[0], background[1], background[2]});
         py::gil_scoped_acquire acquire;
         return py::make_tuple(rgb, opacity);
       },

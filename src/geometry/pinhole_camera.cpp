@@ -52,6 +52,23 @@ PinholeCamera PinholeCamera::orbited(double radians, const Eigen::Vector3d& pivo
   return out;
 }
 
+PinholeCamera PinholeCamera::from_matrices(const torch::Tensor& intrinsic, const torch::Tensor& extrinsic, int width,
+                                          int height, const std::string& context) {
+  expect_floating(intrinsic, context + ": intrinsic");
+  expect_floating(extrinsic, context + ": extrinsic");
+  expect_shape(intrinsic, {3, 3}, context + ": intrinsic");
+  expect_shape(extrinsic, {4, 4}, context + ": extrinsic");
+  const auto k = intrinsic.detach().to(torch::kCPU, torch::kFloat64).contiguous();
+  const auto e = extrinsic.detach().to(torch::kCPU, torch::kFloat64).contiguous();
+  PinholeCamera camera;
+  camera.width = width;
+  camera.height = height;
+  camera.intrinsic = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(k.data_ptr<double>());
+  camera.extrinsic = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(e.data_ptr<double>());
+  camera.validate(context);
+  return camera;
+}
+
 void PinholeCamera::validate(const std::string& context) const {
   FSKIN_CHECK(width > 0 && height > 0, "{}: image size must be positive, got {}x{}", context, width, height);
   FSKIN_CHECK(intrinsic.allFinite() && extrinsic.allFinite(), "{}: camera matrices are not finite", context);

@@ -269,4 +269,10 @@ TrainedAvatar TrainedAvatar::load(const std::string& run_dir) {
   return out;
 }
 
+std::pair<torch::Tensor, torch::Tensor> TrainedAvatar::render(const torch::Tensor& bones, const PinholeCamera& camera,
+                                                              const std::array<double, 3>& background) {
+  const auto frame = avatar->pose(bones.detach().to(torch::kCPU, torch::kFloat32));
+  return avatar->render_image(frame, camera, background);
+}
+
 }  // namespace fskin

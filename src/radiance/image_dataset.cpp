@@ -119,15 +119,8 @@ std::vector<PinholeCamera> load_cameras(const std::string& camera_path, int64_t 
   intrinsic = intrinsic.contiguous();
   extrinsic = extrinsic.contiguous();
   for (int64_t i = 0; i < n; ++i) {
-    PinholeCamera camera;
-    camera.width = static_cast<int>(w);
-    camera.height = static_cast<int>(h);
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) camera.intrinsic(r, c) = intrinsic[i][r][c].item<double>();
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) camera.extrinsic(r, c) = extrinsic[i][r][c].item<double>();
-    camera.validate(fmt::format("{}: camera {}", camera_path, i));
-    cameras.push_back(camera);
+    cameras.push_back(PinholeCamera::from_matrices(intrinsic[i], extrinsic[i], static_cast<int>(w),
+                                                   static_cast<int>(h), fmt::format("{}: camera {}", camera_path, i)));
   }
   return cameras;
 }

@@ -105,5 +105,23 @@ TEST(PinholeCamera, RejectsMatricesThatAreNoCamera) {
   testing::expect_error([&] { skewed.validate("cam"); }, {"cam", "skew"});
 }
 
+TEST(PinholeCamera, FromMatricesReadsTensorsRowMajorAndValidates) {
+  const auto camera = ring_camera(0.7, 0.2, 64, 48);
+  auto k = torch::empty({3, 3}, torch::kFloat32), e = torch::empty({4, 4}, torch::kFloat64);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) k[r][c] = camera.intrinsic(r, c);
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) e[r][c] = camera.extrinsic(r, c);
+  const auto read = PinholeCamera::from_matrices(k, e.t().contiguous().t(), 64, 48, "cam");  // strided too
+  EXPECT_TRUE(read.intrinsic.isApprox(camera.intrinsic, 1e-6));
+  EXPECT_TRUE(read.extrinsic.isApprox(camera.extrinsic, 1e-12));
+  EXPECT_EQ(read.width, 64);
+  testing::expect_error([&] { PinholeCamera::from_matrices(k, e.narrow(0, 0, 3), 64, 48, "render"); },
+                        {"render: extrinsic", "[4, 4]"});
+  testing::expect_error([&] { PinholeCamera::from_matrices(k, e * 2, 64, 48, "render"); }, {"render"});
+  testing::expect_error([&] { PinholeCamera::from_matrices(k.to(torch::kInt64), e, 64, 48, "render"); },
+                        {"render: intrinsic", "floating"});
+}
+
 }  // namespace
 }  // namespace fskin

@@ -40,6 +40,12 @@ struct PinholeCamera {
   // everything is finite, K is upper triangular with positive focal lengths
   // and the rotation part of `extrinsic` is orthonormal with det +1.
   void validate(const std::string& context) const;
+
+  // K [3, 3] and world -> camera [4, 4] (OpenCV convention) from tensors of any
+  // floating dtype and device, for a width x height picture; validated, errors
+  // prefixed with `context`.
+  static PinholeCamera from_matrices(const torch::Tensor& intrinsic, const torch::Tensor& extrinsic, int width,
+                                     int height, const std::string& context);
 };
 
 // Rays through pixel positions pixels [R, 2] (u, v) -> (origins [R, 3],

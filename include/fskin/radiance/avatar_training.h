@@ -63,6 +63,10 @@ struct TrainedAvatar {
   AvatarTrainOptions options;
   int64_t step = 0;
   static TrainedAvatar load(const std::string& run_dir);
+  // The avatar in bones [J, 4, 4] (canonical -> posed) seen by `camera`:
+  // (rgb [H, W, 3] in [0, 1], opacity [H, W]), without gradients.
+  std::pair<torch::Tensor, torch::Tensor> render(const torch::Tensor& bones, const PinholeCamera& camera,
+                                                 const std::array<double, 3>& background);
 };
 
 }  // namespace fskin
