@@ -281,6 +281,12 @@ def humanoid(height: float = ..., seed: int = ..., resolution: int = ...) -> Bod
     """The built-in 24-joint humanoid (SMPL's joints) as a BodyModel"""
     ...
 
+def lowpoly_character(kind: str = ..., seed: int = ..., size: float = ..., variation: float = ...) -> tuple:
+    """A built-in character like real game assets (`fskin character --kind lowpoly-humanoid|lowpoly-
+    animal`): faceted, thin flat parts, painted weights; returns (BodyModel, clips {poses [N, J, 3],
+    trans [N, 3], clip_names, clip_starts}). size: height or nose-to-tail length (0: 1.8 / 0.9)"""
+    ...
+
 def nearest_vertices(points: torch.Tensor, vertices: torch.Tensor) -> tuple:
     """The nearest vertex of each point (k-d tree): points [Q, 3], vertices [V, 3] -> (index [Q] int64,
     distance [Q] float32)"""

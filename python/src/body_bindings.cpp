@@ -5,6 +5,7 @@
 #include "fskin/body/character.h"
 #include "fskin/body/quadruped.h"
 #include "fskin/core/error.h"
+#include "fskin/data/lowpoly_character.h"
 #include "fskin/data/pose_generators.h"
 #include "fskin/geometry/character_size.h"
 
@@ -100,6 +101,24 @@ void bind_body(py::module_& m) {
       },
       py::arg("length") = 1.5, py::arg("seed") = 0, py::arg("resolution") = 150,
       "The built-in 33-joint quadruped as a BodyModel");
+  m.def(
+      "lowpoly_character",
+      [](const std::string& kind, uint64_t seed, double size, double variation) {
+        fskin::LowPolyOptions o;
+        o.kind = fskin::parse_lowpoly_kind(kind);
+        o.seed = seed;
+        o.size = size;
+        o.variation = variation;
+        auto character = fskin::make_lowpoly_character(o);
+        const auto& clips = character.clips;
+        py::dict animation(py::arg("poses") = clips.poses, py::arg("trans") = clips.trans,
+                           py::arg("clip_names") = clips.clip_names, py::arg("clip_starts") = clips.clip_starts);
+        return py::make_tuple(BodyModel(std::move(character.model), "built-in " + kind), animation);
+      },
+      py::arg("kind") = "lowpoly-humanoid", py::arg("seed") = 0, py::arg("size") = 0.0, py::arg("variation") = 0.05,
+      "A built-in character like real game assets (`fskin character --kind lowpoly-humanoid|lowpoly-animal`): "
+      "faceted, thin flat parts, painted weights; returns (BodyModel, clips {poses [N, J, 3], trans [N, 3], "
+      "clip_names, clip_starts}). size: height or nose-to-tail length (0: 1.8 / 0.9)");
   m.def(
       "character_size", [](const torch::Tensor& points) { return fskin::character_size(points); }, py::arg("points"),
       "Longest side of the points' bounding box (the unit every default length follows)");

@@ -570,3 +570,14 @@ def test_the_snarf_deformer_is_a_torch_module_whose_parameters_are_the_searchs()
     buffer.seek(0)
     loaded = torch.load(buffer)
     assert torch.equal(loaded.weights(xd.double()), deformer.weights(xd.double()))
+
+
+def test_the_lowpoly_characters_come_with_their_clips():
+    for kind in ("lowpoly-humanoid", "lowpoly-animal"):
+        body, clips = fskin.lowpoly_character(kind, seed=1)
+        assert body.num_vertices < 5000 and clips["poses"].shape[1:] == (body.num_joints, 3)
+        assert clips["clip_starts"][0] == 0 and len(clips["clip_names"]) == len(clips["clip_starts"])
+        vertices, _, _ = body.forward(clips["poses"][:2], trans=clips["trans"][:2])
+        assert vertices.shape == (2, body.num_vertices, 3)
+    with pytest.raises(fskin.Error, match="lowpoly-humanoid or lowpoly-animal"):
+        fskin.lowpoly_character("dragon")
