@@ -281,6 +281,13 @@ def humanoid(height: float = ..., seed: int = ..., resolution: int = ...) -> Bod
     """The built-in 24-joint humanoid (SMPL's joints) as a BodyModel"""
     ...
 
+def import_character(path: str, keep_open_parts: bool = ...) -> tuple:
+    """A rigged character file as `fskin import` reads it (.glb / .gltf; FBX, Collada, ... through
+    assimp): (BodyModel, clips [{name, poses [T, J, 3], trans [T, 3], joint_translations or None, fps,
+    max_joint_drift}], notes on what was merged, welded, dropped or converted); errors name the file and
+    part"""
+    ...
+
 def lowpoly_character(kind: str = ..., seed: int = ..., size: float = ..., variation: float = ...) -> tuple:
     """A built-in character like real game assets (`fskin character --kind lowpoly-humanoid|lowpoly-
     animal`): faceted, thin flat parts, painted weights; returns (BodyModel, clips {poses [N, J, 3],

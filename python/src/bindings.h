@@ -14,6 +14,7 @@ namespace py = pybind11;
 
 void bind_body(py::module_& m);        // BodyModel, built-in characters, pose generators
 void bind_geometry(py::module_& m);    // VoxelBox, meshes, nearest vertices, weight diffusion
+void bind_import(py::module_& m);      // rigged character files (fskin import)
 void bind_ops(py::module_& m);         // the fused ops' typed wrappers (also torch.ops.fskin.*)
 void bind_deformers(py::module_& m);   // FastSnarfDeformer, SnarfDeformer
 void bind_invertible(py::module_& m);  // INS's Pin

@@ -18,6 +18,7 @@ PYBIND11_MODULE(_fskin, m) {
   // Classes before the functions whose signatures name them.
   python::bind_body(m);
   python::bind_geometry(m);
+  python::bind_import(m);
   python::bind_ops(m);
   python::bind_deformers(m);
   python::bind_invertible(m);

@@ -273,6 +273,12 @@ def test_training_evaluation_and_inference_from_python_match_the_cli(tmp_path):
         trained.animate(pose_array, str(tmp_path / "bad"), mode="sideways")
     trained.export_gltf(str(tmp_path / "avatar.glb"), bones=bones, resolution=32, initial=8)
     assert open(tmp_path / "avatar.glb", "rb").read(4) == b"glTF"
+    # ... and back, as `fskin import` reads it: the skeleton and the animation's frames.
+    imported, clips, notes = fskin.import_character(str(tmp_path / "avatar.glb"))
+    assert imported.num_joints == len(trained.joint_names) and imported.num_vertices > 0
+    assert len(clips) == 1 and clips[0]["poses"].shape == (bones.shape[0], imported.num_joints, 3)
+    with pytest.raises(fskin.Error, match="avatar.stl"):
+        fskin.import_character(str(tmp_path / "avatar.stl"))
     with pytest.raises(fskin.Error, match=".glb or .gltf"):
         trained.export_gltf(str(tmp_path / "avatar.stl"))
     with pytest.raises(fskin.Error, match="no config.json"):
