@@ -142,11 +142,7 @@ TORCH_LIBRARY_IMPL(fskin, CUDA, m) { m.impl("broyden_search", TORCH_FN(broyden_s
 BroydenSearchResult broyden_search(const torch::Tensor& transform_grid, const VoxelBox& box,
                                    const torch::Tensor& x_posed, const torch::Tensor& start_inverses,
                                    const BroydenSearchOptions& options, const torch::Tensor& start_weights) {
-  box.validate("broyden_search");
-  expect_shape(x_posed, {-1, -1, 3}, "broyden_search: x_posed");
-  expect_shape(transform_grid,
-               {x_posed.size(0), box.shape.depth, box.shape.height, box.shape.width, kernels::kChannels},
-               "broyden_search: transform_grid");
+  expect_grid_over_box(transform_grid, box, "broyden_search");
   static const auto op = fskin_operator<SearchSignature>("fskin::broyden_search");
   const auto [x, valid, iterations, start_index, inverse_jacobian] =
       op.call(transform_grid, box_offset_argument(box), box_scale_argument(box), x_posed, start_inverses,

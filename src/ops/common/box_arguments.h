@@ -28,6 +28,14 @@ inline VoxelBox box_from_arguments(c10::ArrayRef<double> offset, c10::ArrayRef<d
   return box;
 }
 
+// The C++ entries take a VoxelBox, whose voxel counts the schema drops (they
+// become the grid's shape): check them against the grid before the call; the
+// kernel checks everything else.
+inline void expect_grid_over_box(const torch::Tensor& grid, const VoxelBox& box, const std::string& op) {
+  box.validate(op);
+  expect_shape(grid, {-1, box.shape.depth, box.shape.height, box.shape.width, -1}, op + ": transform_grid");
+}
+
 inline std::vector<double> box_offset_argument(const VoxelBox& box) { return {box.offset.begin(), box.offset.end()}; }
 inline std::vector<double> box_scale_argument(const VoxelBox& box) { return {box.scale.begin(), box.scale.end()}; }
 

@@ -75,11 +75,7 @@ TORCH_LIBRARY_IMPL(fskin, CUDA, m) { m.impl("grid_forward_skinning", TORCH_FN(gr
 
 torch::Tensor grid_forward_skinning(const torch::Tensor& transform_grid, const VoxelBox& box,
                                     const torch::Tensor& x_canonical) {
-  box.validate("grid_forward_skinning");
-  expect_shape(x_canonical, {-1, -1, 3}, "grid_forward_skinning: x_canonical");
-  expect_shape(transform_grid,
-               {x_canonical.size(0), box.shape.depth, box.shape.height, box.shape.width, kernels::kChannels},
-               "grid_forward_skinning: transform_grid");
+  expect_grid_over_box(transform_grid, box, "grid_forward_skinning");
   static const auto op = fskin_operator<SkinningSignature>("fskin::grid_forward_skinning");
   return op.call(transform_grid, box_offset_argument(box), box_scale_argument(box), x_canonical);
 }

@@ -201,7 +201,7 @@ TORCH_LIBRARY_IMPL(fskin, Autograd, m) {
 
 std::tuple<torch::Tensor, torch::Tensor> composite_rays(const torch::Tensor& sigma, const torch::Tensor& rgb,
                                                         const torch::Tensor& delta, const torch::Tensor& background) {
-  check_inputs(sigma, rgb, delta, background);
+  // Shapes, dtypes and devices are the kernel's to check (every caller of the op passes there).
   expect_finite_on_cpu(delta, "composite_rays: delta");
   static const auto op = fskin_operator<CompositeSignature>("fskin::composite_rays");
   return op.call(sigma, rgb, delta, background);
