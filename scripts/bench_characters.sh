@@ -5,7 +5,8 @@
 # distribution, and prints each run and the mean and spread per character.
 #
 #   scripts/bench_characters.sh [--kinds "lowpoly-animal lowpoly-humanoid"] [--seeds "0 1 2"]
-#                               [--tag NAME] [-- extra fskin train arguments]
+#                               [--tag NAME] [--data NAME "fskin data build arguments"]
+#                               [-- extra fskin train arguments]
 # Environment: FSKIN (default build/fskin), OUT (default bench-characters),
 # THREADS (default 2: training is deterministic for a seed and a fixed thread
 # count, and its result depends on the count, so the runs fix it).
@@ -15,7 +16,8 @@
 #   lowpoly-humanoid  train on idle + walk + wave, OOD = run
 #   humanoid          the demo's 8 x 25 training poses and 20 OOD poses
 #   quadruped         the same generators for the built-in quadruped
-# Data: 50,000 points per frame (the demo's). Results go to
+# Data: 50,000 points per frame (the demo's); --data builds a variant beside the
+# default dataset, in $OUT/<kind>/data-NAME. Results go to
 # $OUT/results.jsonl, one line per run.
 set -euo pipefail
 FSKIN=${FSKIN:-build/fskin}
@@ -23,12 +25,15 @@ OUT=${OUT:-bench-characters}
 KINDS="lowpoly-animal lowpoly-humanoid"
 SEEDS="0 1 2"
 TAG=default
+DATA=data
+DATA_ARGS=()
 THREADS=${THREADS:-2}
 while [ $# -gt 0 ]; do
   case "$1" in
     --kinds) KINDS=$2; shift 2 ;;
     --seeds) SEEDS=$2; shift 2 ;;
     --tag) TAG=$2; shift 2 ;;
+    --data) DATA=data-$2; read -r -a DATA_ARGS <<< "$3"; shift 3 ;;
     --) shift; break ;;
     *) echo "bench_characters: unknown argument $1" >&2; exit 2 ;;
   esac
@@ -36,7 +41,7 @@ done
 EXTRA=("$@")
 mkdir -p "$OUT"
 
-dataset() {  # kind -> $OUT/<kind>/data (data build resumes and skips the frames it has)
+dataset() {  # kind -> $OUT/<kind>/$DATA (data build resumes and skips the frames it has)
   local kind=$1 dir="$OUT/$1"
   mkdir -p "$dir"
   if [ ! -f "$dir/ood_poses.npz" ]; then
@@ -55,7 +60,7 @@ dataset() {  # kind -> $OUT/<kind>/data (data build resumes and skips the frames
     esac
   fi
   "$FSKIN" data build --model "$dir/model.npz" --poses "$dir/train_poses.npz" --ood-poses "$dir/ood_poses.npz" \
-      --out "$dir/data" --points 50000 --quiet > /dev/null
+      --out "$dir/$DATA" --points 50000 --quiet ${DATA_ARGS[@]+"${DATA_ARGS[@]}"} > /dev/null
 }
 
 iou() {  # eval json, key
@@ -68,13 +73,13 @@ for kind in $KINDS; do
     run="$OUT/$kind/run-$TAG-$seed"
     rm -rf "$run"
     start=$(date +%s.%N)
-    "$FSKIN" --threads "$THREADS" train --data "$OUT/$kind/data" --out "$run" --quiet --set seed="$seed" "${EXTRA[@]}" > "$run.log" 2>&1 ||
+    "$FSKIN" --threads "$THREADS" train --data "$OUT/$kind/$DATA" --out "$run" --quiet --set seed="$seed" "${EXTRA[@]}" > "$run.log" 2>&1 ||
       { echo "bench_characters: training failed, see $run.log" >&2; exit 1; }
     seconds=$(/usr/bin/python3 -c "import sys; print(round(float(sys.argv[2]) - float(sys.argv[1]), 1))" "$start" "$(date +%s.%N)")
     "$FSKIN" eval "$run" --split test-within --quiet > /dev/null
     "$FSKIN" eval "$run" --split test-ood --quiet > /dev/null
-    line=$(printf '{"tag": "%s", "kind": "%s", "seed": %s, "threads": %s, "train_s": %s, "within_bbox": %s, "within_surf": %s, "ood_bbox": %s, "ood_surf": %s}' \
-      "$TAG" "$kind" "$seed" "$THREADS" "$seconds" \
+    line=$(printf '{"tag": "%s", "data": "%s", "kind": "%s", "seed": %s, "threads": %s, "train_s": %s, "within_bbox": %s, "within_surf": %s, "ood_bbox": %s, "ood_surf": %s}' \
+      "$TAG" "$DATA" "$kind" "$seed" "$THREADS" "$seconds" \
       "$(iou "$run/eval-test-within.json" mean_iou_bbox)" "$(iou "$run/eval-test-within.json" mean_iou_surf)" \
       "$(iou "$run/eval-test-ood.json" mean_iou_bbox)" "$(iou "$run/eval-test-ood.json" mean_iou_surf)")
     echo "$line" | tee -a "$OUT/results.jsonl"

@@ -19,6 +19,7 @@ void register_data(CLI::App& app) {
     int64_t points = 200000;
     uint64_t seed = 0;
     double val_fraction = 0.1, test_fraction = 0.1;
+    double thin_surface_share = 0, thin_thickness = 1.0 / 32;
     bool quiet = false;
   };
   auto opt = std::make_shared<Options>();
@@ -43,6 +44,13 @@ void register_data(CLI::App& app) {
   build->add_option("--val-fraction", opt->val_fraction, "fraction of the poses for validation");
   build->add_option("--test-fraction", opt->test_fraction,
                     "fraction of the poses for the within-distribution test");
+  build->add_option("--thin-surface-share", opt->thin_surface_share,
+                    "share of the training frames' near-surface points drawn on parts thinner than "
+                    "--thin-thickness (0: area-uniform; test frames always are)")
+      ->check(CLI::Range(0.0, 1.0));
+  build->add_option("--thin-thickness", opt->thin_thickness,
+                    "thickness below which a part is thin, as a fraction of the character's size")
+      ->check(CLI::Range(1e-6, 1.0));
   build->add_flag("--quiet", opt->quiet, "no progress bar");
   build->callback([opt] {
     const auto model = BodyModel::load(opt->model);
@@ -59,6 +67,8 @@ void register_data(CLI::App& app) {
     options.val_fraction = opt->val_fraction;
     options.test_fraction = opt->test_fraction;
     options.canonical_pose = opt->canonical;
+    options.thin_surface_share = opt->thin_surface_share;
+    options.thin_thickness = opt->thin_thickness;
     options.progress = !opt->quiet;
     const auto summary = build_dataset(model, poses, ood, options);
     std::printf("%s: %s\n", opt->out.c_str(), summary.to_string().c_str());

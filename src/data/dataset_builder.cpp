@@ -15,6 +15,7 @@
 #include "fskin/data/dataset_frame.h"
 #include "fskin/data/inside_test.h"
 #include "fskin/data/random.h"
+#include "fskin/data/thin_parts.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/skeleton/forward_kinematics.h"
 #include "fskin/util/atomic_file.h"
@@ -47,6 +48,22 @@ torch::Tensor box_tensor(const Box& box) {
       .reshape({2, 3});
 }
 
+// sample_frame_points with `share` of the near-surface samples drawn on the
+// faces `thin` (area-uniform among them) and the rest area-uniform over the
+// whole surface.
+torch::Tensor sample_frame_points_thin(const Mesh& mesh, const SamplingOptions& options,
+                                       const torch::Tensor& thin, double share, Rng& rng) {
+  const auto uniform = sample_box(mesh_bounds(mesh, options.box_scale), options.uniform_points, rng);
+  const auto on_thin = static_cast<int64_t>(std::llround(share * static_cast<double>(options.surface_points)));
+  const Mesh thin_mesh{mesh.vertices, mesh.faces.index_select(0, thin), {}};
+  auto surface = torch::cat({sample_surface(mesh, options.surface_points - on_thin, rng),
+                             sample_surface(thin_mesh, on_thin, rng)});
+  float* sp = surface.data_ptr<float>();
+  for (int64_t k = 0; k < surface.numel(); ++k)
+    sp[k] += static_cast<float>(options.noise_sigma * rng.normal());
+  return torch::cat({uniform, surface}, 0);
+}
+
 }  // namespace
 
 void DatasetBuildOptions::validate() const {
@@ -57,6 +74,10 @@ void DatasetBuildOptions::validate() const {
               val_fraction, test_fraction);
   FSKIN_CHECK(canonical_pose == "default" || canonical_pose == "da" || canonical_pose == "rest",
               "dataset build: canonical pose must be 'default', 'da' or 'rest', got '{}'", canonical_pose);
+  FSKIN_CHECK(thin_surface_share >= 0 && thin_surface_share <= 1,
+              "dataset build: the thin-surface share must be in [0, 1], got {}", thin_surface_share);
+  FSKIN_CHECK(std::isfinite(thin_thickness) && thin_thickness > 0,
+              "dataset build: the thin thickness must be positive, got {}", thin_thickness);
 }
 
 std::string DatasetBuildSummary::to_string() const {
@@ -101,6 +122,11 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
   const auto canonical_bones = canonical.bone_transforms;  // [1, J, 4, 4] rest -> canonical
   const Mesh canonical_mesh{canonical.vertices[0].contiguous(), model.data().faces, {}};
   const Box canonical_box = mesh_bounds(canonical_mesh, sampling.box_scale);
+  // Thickness barely changes with the pose: the thin faces are found once, in
+  // the canonical pose, and the posed frames sample the same faces.
+  const auto thin = options.thin_surface_share > 0
+                        ? thin_faces(canonical_mesh, options.thin_thickness * size)
+                        : torch::zeros({0}, torch::kInt64);
 
   // Contiguous blocks: train | val | test_within.
   const int64_t n = poses.size();
@@ -158,6 +184,16 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
       {"splits", splits},
   };
 
+  if (options.thin_surface_share > 0) {
+    // Only then: datasets built without it keep their manifest, and resume.
+    manifest["sampling"]["train_surface_sampling"] = fmt::format(
+        "{:.0f} % on the {} faces thinner than {:.3g} ({} x the size), the rest area-uniform",
+        100 * options.thin_surface_share, thin.size(0), options.thin_thickness * size, options.thin_thickness);
+    manifest["sampling"]["thin_surface_share"] = options.thin_surface_share;
+    manifest["sampling"]["thin_thickness"] = options.thin_thickness;
+    manifest["sampling"]["thin_faces"] = thin.size(0);
+  }
+
   const fs::path dir(options.out_dir);
   const BuildManifest build_manifest(options.out_dir, manifest);
 
@@ -207,7 +243,9 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
 
     start = Clock::now();
     Rng rng = Rng::for_item(options.seed, f);
-    frame.points = sample_frame_points(mesh, sampling, rng);
+    frame.points = item.split == "train" && thin.size(0) > 0
+                       ? sample_frame_points_thin(mesh, sampling, thin, options.thin_surface_share, rng)
+                       : sample_frame_points(mesh, sampling, rng);
     frame.num_uniform = sampling.uniform_points;
     frame.box = box_tensor(mesh_bounds(mesh, sampling.box_scale));
     summary.sampling_s += seconds_since(start);

@@ -12,6 +12,9 @@
 #include "data/analytic_meshes.h"
 #include "fskin/data/dataset.h"
 #include "fskin/data/inside_test.h"
+#include "fskin/data/lowpoly_character.h"
+#include "fskin/data/thin_parts.h"
+#include "fskin/geometry/character_size.h"
 #include "fskin/data/pose_generators.h"
 #include "fskin/skeleton/lbs.h"
 #include "fskin/util/atomic_file.h"
@@ -145,6 +148,47 @@ TEST_F(DatasetBuilder, RestPoseFramesMatchTheAnalyticCapsule) {
   const auto away = d.abs() > 0.006;
   EXPECT_TRUE(torch::equal(frame.occupancy.to(torch::kBool).index({away}), (d < 0).index({away})));
   fs::remove_all(dir);
+}
+
+// Thin-part oversampling reaches the training frames only: the test frames'
+// points define IoU_surf and stay area-uniform.
+TEST_F(DatasetBuilder, ThinSurfaceShareOversamplesThinPartsInTrainingFramesOnly) {
+  const auto dir = testing::temp_dir("dataset_thin");
+  LowPolyOptions fox;
+  fox.kind = LowPolyKind::Animal;
+  const auto model = make_lowpoly_model(fox);
+  PoseSet rest;
+  rest.poses = torch::zeros({10, model.num_joints(), 3});
+  rest.trans = torch::zeros({10, 3});
+  auto options = f.options(dir);
+  options.sampling.uniform_points = 0;
+  options.sampling.surface_points = 4000;
+  options.canonical_pose = "rest";
+  options.thin_surface_share = 0.6;
+  build_dataset(model, rest, PoseSet{}, options);
+  const auto manifest = nlohmann::json::parse(read_file((dir / "manifest.json").string()));
+  EXPECT_EQ(manifest["sampling"]["thin_surface_share"].get<double>(), 0.6);
+  const int64_t thin_count = manifest["sampling"]["thin_faces"].get<int64_t>();
+  const auto mesh = model.template_mesh();
+  const auto thin = thin_faces(mesh, character_size(mesh.vertices) / 32);
+  EXPECT_EQ(thin_count, thin.size(0));
+  ASSERT_GT(thin.size(0), 0);
+  ASSERT_LT(thin.size(0), mesh.num_faces() / 2);
+  // Share of a frame's points nearest to a vertex of a thin face.
+  auto on_thin_vertex = torch::zeros({mesh.num_vertices()}, torch::kBool);
+  on_thin_vertex.index_put_({mesh.faces.index_select(0, thin).flatten()}, true);
+  const auto share = [&](const std::string& file) {
+    const auto frame = DatasetFrame::load((dir / file).string());
+    const auto nearest = torch::cdist(frame.points, mesh.vertices.to(torch::kFloat32)).argmin(1);
+    return on_thin_vertex.index_select(0, nearest).to(torch::kFloat64).mean().item<double>();
+  };
+  const double train = share("train_00000.npz"), test = share("test_within_00000.npz");
+  EXPECT_GT(train, test + 0.3) << "train " << train << ", test " << test;
+  EXPECT_GT(train, 0.45);  // 0.6 on thin faces; low-poly faces reach past their nearest vertices
+  fs::remove_all(dir);
+  auto bad = f.options(dir);
+  bad.thin_surface_share = 1.5;
+  testing::expect_error([&] { build_dataset(f.model, f.poses, f.ood, bad); }, {"thin-surface share"});
 }
 
 TEST_F(DatasetBuilder, SameSeedGivesIdenticalBytesAndResumeRewritesOnlyWhatIsMissing) {

@@ -5,6 +5,7 @@
 #include <torch/torch.h>
 
 #include <algorithm>
+#include <set>
 
 #include "fskin/body/body_model.h"
 #include "fskin/data/inside_test.h"
@@ -38,6 +39,33 @@ TEST(ThinParts, NamesTheFoxsEarsAndTailAtTheSkinningGridsCell) {
   EXPECT_TRUE(fine.bones.empty()) << fine.summary();
   EXPECT_LT(fine.thin_fraction, 0.01);
   testing::expect_error([&] { find_thin_parts(model.template_mesh(), skeleton, 0); }, {"cell size"});
+}
+
+TEST(ThinParts, ThinFacesAreTheFacesOfTheThinParts) {
+  if (!inside_test_available()) GTEST_SKIP() << "built without Embree";
+  LowPolyOptions options;
+  options.kind = LowPolyKind::Animal;
+  const auto model = make_lowpoly_model(options);
+  const auto mesh = model.template_mesh();
+  const auto skeleton = testing::rest_skeleton(model);
+  const auto thin = thin_faces(mesh, 0.9 / 31);
+  ASSERT_GT(thin.size(0), 0);
+  EXPECT_LT(thin.size(0), mesh.num_faces() / 2);
+  // Their centroids hang from the ears and the tail, never from the trunk.
+  const auto f = mesh.faces.index_select(0, thin);
+  const auto v = mesh.vertices.to(torch::kFloat32);
+  const auto centroids = (v.index_select(0, f.select(1, 0)) + v.index_select(0, f.select(1, 1)) +
+                          v.index_select(0, f.select(1, 2))) / 3.0f;
+  const auto bones = nearest_bone(skeleton, centroids);
+  std::set<std::string> names;
+  for (int64_t i = 0; i < bones.size(0); ++i) names.insert(skeleton.joint_names[bones[i].item<int64_t>()]);
+  std::string all;
+  for (const auto& name : names) all += name + " ";
+  EXPECT_TRUE(names.count("ear.L") || names.count("ear_tip.L")) << all;
+  EXPECT_TRUE(names.count("tail.002") || names.count("tail.003") || names.count("tail.004")) << all;
+  for (const char* trunk : {"pelvis", "spine", "chest"}) EXPECT_EQ(names.count(trunk), 0u) << all;
+  EXPECT_EQ(thin_faces(mesh, 0.002).size(0), 0);
+  testing::expect_error([&] { thin_faces(mesh, -1); }, {"thickness"});
 }
 
 }  // namespace

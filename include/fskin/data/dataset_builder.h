@@ -31,6 +31,13 @@ struct DatasetBuildOptions {
   // "default" (the model's declared canonical pose; else the papers' Da-pose
   // for SMPL skeletons; else the rest pose), "da" or "rest".
   std::string canonical_pose = "default";
+  // Share of each training frame's near-surface samples drawn on the faces
+  // thinner than thin_thickness x the character's size (thin_faces in
+  // thin_parts.h: ears, fins, fingers, capes, tails), the rest area-uniform;
+  // 0 = area-uniform everywhere. Validation and test frames are always
+  // area-uniform: their points define IoU_surf.
+  double thin_surface_share = 0;
+  double thin_thickness = 1.0 / 32;
   bool progress = true;
   void validate() const;
 };

@@ -45,4 +45,9 @@ struct ThinPartOptions {
 ThinParts find_thin_parts(const Mesh& mesh, const CanonicalSkeleton& skeleton, double cell,
                           const ThinPartOptions& options = {});
 
+// Indices [K] int64 of the faces of the closed `mesh` thinner than
+// `thickness` at their centroid (the same inward-ray test), for sampling them
+// more densely. Needs InsideTest (Embree).
+torch::Tensor thin_faces(const Mesh& mesh, double thickness);
+
 }  // namespace fskin
