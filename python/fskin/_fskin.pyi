@@ -227,9 +227,11 @@ class VoxelBox:
         """Canonical positions of the voxel centres [D, H, W, 3]"""
         ...
 
-def build_dataset(model: str, poses: torch.Tensor, out: str, trans: Optional[torch.Tensor] = ..., ood_poses: Optional[torch.Tensor] = ..., points: int = ..., seed: int = ..., canonical_pose: str = ..., progress: bool = ...) -> dict:
+def build_dataset(model: str, poses: torch.Tensor, out: str, trans: Optional[torch.Tensor] = ..., ood_poses: Optional[torch.Tensor] = ..., points: int = ..., seed: int = ..., canonical_pose: str = ..., thin_surface_share: float = ..., thin_thickness: float = ..., progress: bool = ...) -> dict:
     """A dataset directory as `fskin data build` writes it, from a model file and poses [N, J, 3]
-    (ood_poses: the test_ood split); needs Embree (built_with_embree)"""
+    (ood_poses: the test_ood split; thin_surface_share: the share of the training frames' near-surface
+    points drawn on parts thinner than thin_thickness x the character's size); needs Embree
+    (built_with_embree)"""
     ...
 
 def build_image_dataset(model: str, poses: torch.Tensor, out: str, held_out_poses: Optional[torch.Tensor] = ..., size: int = ..., views: int = ..., held_out_views: int = ..., novel_view_frames: int = ..., monocular: bool = ..., progress: bool = ...) -> str:

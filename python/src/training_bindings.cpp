@@ -111,7 +111,8 @@ void bind_training(py::module_& m) {
       "build_dataset",
       [](const std::string& model_path, const torch::Tensor& poses, const std::string& out,
          const std::optional<torch::Tensor>& trans, const std::optional<torch::Tensor>& ood_poses, int64_t points,
-         uint64_t seed, const std::string& canonical_pose, bool progress) {
+         uint64_t seed, const std::string& canonical_pose, double thin_surface_share, double thin_thickness,
+         bool progress) {
         const auto model = BodyModel::load(model_path);
         const auto& names = model.data().joint_names;
         const auto train = pose_set(poses, trans, names, "build_dataset: poses");
@@ -126,6 +127,8 @@ void bind_training(py::module_& m) {
         options.sampling.surface_points = points - points / 2;
         options.seed = seed;
         options.canonical_pose = canonical_pose;
+        options.thin_surface_share = thin_surface_share;
+        options.thin_thickness = thin_thickness;
         options.progress = progress;
         fskin::DatasetBuildSummary summary;
         {
@@ -138,9 +141,12 @@ void bind_training(py::module_& m) {
       },
       py::arg("model"), py::arg("poses"), py::arg("out"), py::arg("trans") = py::none(),
       py::arg("ood_poses") = py::none(), py::arg("points") = 50000, py::arg("seed") = 0,
-      py::arg("canonical_pose") = "default", py::arg("progress") = false,
+      py::arg("canonical_pose") = "default",
+      py::arg("thin_surface_share") = fskin::DatasetBuildOptions{}.thin_surface_share,
+      py::arg("thin_thickness") = fskin::DatasetBuildOptions{}.thin_thickness, py::arg("progress") = false,
       "A dataset directory as `fskin data build` writes it, from a model file and poses [N, J, 3] (ood_poses: "
-      "the test_ood split); needs Embree (built_with_embree)");
+      "the test_ood split; thin_surface_share: the share of the training frames' near-surface points drawn on "
+      "parts thinner than thin_thickness x the character's size); needs Embree (built_with_embree)");
   py::class_<fskin::Dataset>(m, "Dataset", "One split of a dataset directory: frames of posed points and occupancy")
       .def(py::init([](const std::string& dir, const std::string& split, bool with_meshes) {
              return fskin::Dataset::load(dir, split, with_meshes);

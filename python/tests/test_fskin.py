@@ -587,3 +587,19 @@ def test_the_lowpoly_characters_come_with_their_clips():
         assert vertices.shape == (2, body.num_vertices, 3)
     with pytest.raises(fskin.Error, match="lowpoly-humanoid or lowpoly-animal"):
         fskin.lowpoly_character("dragon")
+
+
+@pytest.mark.skipif(not fskin.built_with_embree(), reason="built without Embree")
+def test_build_dataset_oversamples_thin_parts_in_training_frames(tmp_path):
+    body, clips = fskin.lowpoly_character("lowpoly-animal")
+    model = str(tmp_path / "fox.npz")
+    body.save(model)
+    poses = clips["poses"][:10]
+    summary = fskin.build_dataset(model, poses, str(tmp_path / "data"), points=2000, thin_surface_share=0.6)
+    assert summary["train"] == 8
+    manifest = json.loads((tmp_path / "data" / "manifest.json").read_text())
+    assert manifest["sampling"]["thin_surface_share"] == 0.6 and manifest["sampling"]["thin_faces"] > 0
+    frame = fskin.Dataset(str(tmp_path / "data"), "train")[0]
+    assert frame["points"].shape == (2000, 3) and frame["num_uniform"] == 1000
+    with pytest.raises(fskin.Error, match="thin-surface share"):
+        fskin.build_dataset(model, poses, str(tmp_path / "bad"), thin_surface_share=1.5)

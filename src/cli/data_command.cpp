@@ -19,7 +19,8 @@ void register_data(CLI::App& app) {
     int64_t points = 200000;
     uint64_t seed = 0;
     double val_fraction = 0.1, test_fraction = 0.1;
-    double thin_surface_share = 0, thin_thickness = 1.0 / 32;
+    double thin_surface_share = DatasetBuildOptions{}.thin_surface_share,
+           thin_thickness = DatasetBuildOptions{}.thin_thickness;
     bool quiet = false;
   };
   auto opt = std::make_shared<Options>();
