@@ -112,6 +112,10 @@ class Pin:
     def fused(self: Pin, x: torch.Tensor, embedding: torch.Tensor, inverse: bool = ...) -> torch.Tensor:
         """The fused inference kernel (float32, no gradients): the same map in one pass per point"""
         ...
+    def fused_arguments(self: Pin, embedding: torch.Tensor) -> tuple:
+        """(packed [B, P] float32, shape list) for torch.ops.fskin.pin_pass(points, packed, shape, inverse):
+        the parameters folded with the pose embeddings [B, E] and the architecture"""
+        ...
     def inverse(self: Pin, y: torch.Tensor, embedding: torch.Tensor) -> torch.Tensor:
         """PIN^-1(y, z), differentiable"""
         ...

@@ -30,6 +30,10 @@ class PyPin {
     torch::NoGradGuard no_grad;
     return fskin::fused_pin_pass(*pin_, x, embedding, inverse);
   }
+  py::tuple fused_arguments(const torch::Tensor& embedding) {
+    auto arguments = fskin::fused_pin_arguments(*pin_, embedding);
+    return py::make_tuple(arguments.packed, arguments.shape);
+  }
   std::vector<torch::Tensor> parameters() { return pin_->parameters(); }
   void to(const std::string& target) {
     if (target == "float32" || target == "float64") {
@@ -80,6 +84,9 @@ void bind_invertible(py::module_& m) {
       .def("fused", &PyPin::fused, py::arg("x"), py::arg("embedding"), py::arg("inverse") = false,
            py::call_guard<py::gil_scoped_release>(),
            "The fused inference kernel (float32, no gradients): the same map in one pass per point")
+      .def("fused_arguments", &PyPin::fused_arguments, py::arg("embedding"),
+           "(packed [B, P] float32, shape list) for torch.ops.fskin.pin_pass(points, packed, shape, inverse): the "
+           "parameters folded with the pose embeddings [B, E] and the architecture")
       .def("parameters", &PyPin::parameters, "The network's parameters (tensors shared with it) for torch.optim")
       .def("to", &PyPin::to, py::arg("target"), "'float32', 'float64' or a device ('cpu', 'cuda')");
 }

@@ -88,3 +88,26 @@ def test_grid_forward_skinning_and_broyden_search_are_dispatcher_ops():
 def test_a_box_of_the_wrong_size_is_an_error_naming_the_op():
     with pytest.raises(RuntimeError, match="grid_forward_skinning: box_offset"):
         torch.ops.fskin.grid_forward_skinning(identity_grid(), [0.0, 0.0], [1.0, 1.0, 1.0], torch.zeros(1, 2, 3))
+
+
+@torch.jit.script
+def scripted_pin_pass(points: torch.Tensor, packed: torch.Tensor, shape: list[int], inverse: bool):
+    return torch.ops.fskin.pin_pass(points, packed, shape, inverse)
+
+
+def test_pin_pass_is_a_dispatcher_op_the_fused_pin_calls():
+    torch.manual_seed(3)
+    pin = fskin.Pin(num_layers=3, embedding_dim=6)
+    embedding = torch.randn(2, 6) * 0.5
+    points = torch.rand(2, 30, 3) * 2 - 1
+    packed, shape = pin.fused_arguments(embedding)
+    assert packed.shape[0] == 2 and packed.dtype == torch.float32 and len(shape) == 6 + 5 * 3
+    moved = torch.ops.fskin.pin_pass(points, packed, shape, False)
+    assert torch.equal(moved, pin.fused(points, embedding))
+    assert torch.equal(scripted_pin_pass(points, packed, shape, False), moved)
+    back = torch.ops.fskin.pin_pass(moved, packed, shape, True)
+    assert torch.allclose(back, points, atol=1e-4)
+    with pytest.raises(RuntimeError, match="pin_pass: layer 0"):
+        torch.ops.fskin.pin_pass(points, packed, shape[:6] + [3] + shape[7:], False)
+    with pytest.raises(RuntimeError, match="pin_pass: packed parameters"):
+        torch.ops.fskin.pin_pass(points, packed[:, :-1], shape, False)

@@ -1,5 +1,6 @@
 #include "fskin/ops/pin_pass.h"
 
+#include <ATen/core/dispatch/Dispatcher.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -92,11 +93,43 @@ TEST(FusedPinPassInput, BadInputNamesTheProblem) {
                         {"float32"});
   testing::expect_error(
       [&] { fused_pin_pass(*pin, torch::full({1, 5, 3}, std::numeric_limits<float>::quiet_NaN()), pose, true); },
-      {"fused PIN pass: points"});
+      {"pin_pass: points", "finite"});
   o.coupling.map_hidden_dim = 300;
   Pin wide(o);
   EXPECT_FALSE(fused_pin_pass_supports(*wide));
   testing::expect_error([&] { fused_pin_pass(*wide, torch::zeros({1, 5, 3}), pose, true); }, {"too large"});
+}
+
+// The kernel is fskin::pin_pass in PyTorch's dispatcher: the packed arguments
+// through the op give the C++ entry's result, and a hand-made shape list is
+// checked before the kernel reads a float.
+TEST(FusedPinPassInput, IsAnOperatorInPyTorchsDispatcher) {
+  torch::manual_seed(23);
+  PinOptions o;
+  o.num_layers = 3;
+  o.own_pose_encoder = false;
+  o.coupling.embedding_dim = 6;
+  Pin pin(o);
+  const auto pose = torch::randn({2, 6}) * 0.5;
+  const auto x = torch::rand({2, 40, 3}) * 2 - 1;
+  const auto arguments = fused_pin_arguments(*pin, pose);
+  EXPECT_EQ(arguments.packed.sizes(), (torch::IntArrayRef{2, arguments.packed.size(1)}));
+  EXPECT_EQ(arguments.shape.size(), 6u + 5u * 3u);
+  const auto op = c10::Dispatcher::singleton()
+                      .findSchemaOrThrow("fskin::pin_pass", "")
+                      .typed<torch::Tensor(const torch::Tensor&, const torch::Tensor&, c10::IntArrayRef, bool)>();
+  EXPECT_TRUE(torch::equal(op.call(x, arguments.packed, arguments.shape, false), fused_pin_pass(*pin, x, pose, false)));
+  auto shape = arguments.shape;
+  shape[0] = 4;  // more layers than the list describes
+  testing::expect_error([&] { op.call(x, arguments.packed, shape, false); }, {"pin_pass: shape", "4 layers"});
+  shape = arguments.shape;
+  shape[6] = 3;  // a layer moving three axes
+  testing::expect_error([&] { op.call(x, arguments.packed, shape, false); }, {"pin_pass: layer 0"});
+  shape = arguments.shape;
+  shape[4] += 1;  // a wider map than the packed parameters hold
+  testing::expect_error([&] { op.call(x, arguments.packed, shape, false); }, {"pin_pass: packed parameters"});
+  testing::expect_error([&] { op.call(x, arguments.packed.narrow(0, 0, 1), arguments.shape, false); },
+                        {"pin_pass: packed parameters"});
 }
 
 }  // namespace
