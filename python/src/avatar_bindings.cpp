@@ -1,6 +1,8 @@
 // Image datasets and avatars from images, as `fskin data images` and `fskin avatar`.
 #include "bindings.h"
 
+#include <array>
+
 #include "fskin/body/body_model.h"
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
@@ -18,37 +20,43 @@ void bind_avatars(py::module_& m) {
   m.def(
       "build_image_dataset",
       [](const std::string& model_path, const torch::Tensor& poses, const std::string& out,
-         const std::optional<torch::Tensor>& held_out_poses, int size, int views, int held_out_views,
-         int novel_view_frames, bool monocular, bool progress) {
+         const std::optional<torch::Tensor>& held_out_poses, int size, int width, int height, int views,
+         int held_out_views, int novel_view_frames, bool monocular, int supersampling,
+         const std::string& canonical_pose, const std::array<double, 3>& background, bool progress) {
         const auto model = BodyModel::load(model_path);
-        const auto as_set = [&](const torch::Tensor& p) {
-          fskin::PoseSet set;
-          set.poses = p.detach().to(torch::kCPU, torch::kFloat32).contiguous();
-          set.trans = torch::zeros({set.poses.size(0), 3});
-          set.joint_names = model.data().joint_names;
-          return set;
-        };
+        const auto& names = model.data().joint_names;
         fskin::ImageDatasetOptions options;
         options.out_dir = out;
-        options.width = options.height = size;
+        options.width = size > 0 ? size : width;
+        options.height = size > 0 ? size : height;
         options.training_views = views;
         options.held_out_views = held_out_views;
         options.novel_view_frames = novel_view_frames;
         options.monocular = monocular;
+        options.supersampling = supersampling;
+        options.canonical_pose = canonical_pose;
+        options.background = background;
         options.progress = progress;
         options.model_source = std::filesystem::absolute(model_path).string();
         options.poses_source = "python";
         options.ood_poses_source = held_out_poses ? "python" : "";
+        const auto train = pose_set(poses, std::nullopt, names, "build_image_dataset: poses");
+        const auto held_out = held_out_poses
+                                  ? pose_set(*held_out_poses, std::nullopt, names, "build_image_dataset: held_out_poses")
+                                  : fskin::PoseSet{};
         py::gil_scoped_release release;
-        return fskin::build_image_dataset(model, as_set(poses), held_out_poses ? as_set(*held_out_poses) : fskin::PoseSet{},
-                                          options)
-            .to_string();
+        return fskin::build_image_dataset(model, train, held_out, options).to_string();
       },
       py::arg("model"), py::arg("poses"), py::arg("out"), py::arg("held_out_poses") = py::none(),
-      py::arg("size") = 256, py::arg("views") = 4, py::arg("held_out_views") = 4, py::arg("novel_view_frames") = 8,
-      py::arg("monocular") = false, py::arg("progress") = false,
+      py::arg("size") = 0, py::arg("width") = fskin::ImageDatasetOptions{}.width,
+      py::arg("height") = fskin::ImageDatasetOptions{}.height,
+      py::arg("views") = fskin::ImageDatasetOptions{}.training_views,
+      py::arg("held_out_views") = fskin::ImageDatasetOptions{}.held_out_views,
+      py::arg("novel_view_frames") = fskin::ImageDatasetOptions{}.novel_view_frames, py::arg("monocular") = false,
+      py::arg("supersampling") = fskin::ImageDatasetOptions{}.supersampling, py::arg("canonical_pose") = "default",
+      py::arg("background") = fskin::ImageDatasetOptions{}.background, py::arg("progress") = false,
       "An image dataset as `fskin data images` writes it (PeopleSnapshot's layout), from a model file and poses "
-      "[N, J, 3]; returns its summary");
+      "[N, J, 3]; size (> 0) sets width and height; returns its summary");
   m.def(
       "train_avatar",
       [](const std::string& data, const std::string& out, int64_t steps, int64_t rays_per_step, bool resume,

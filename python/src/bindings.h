@@ -7,6 +7,10 @@
 #include <torch/extension.h>
 
 #include <optional>
+#include <string>
+#include <vector>
+
+#include "fskin/data/pose_set.h"
 
 namespace fskin::python {
 
@@ -24,6 +28,11 @@ void bind_avatars(py::module_& m);     // image datasets and avatars
 void bind_system(py::module_& m);      // build facts: OpenBLAS, Embree, CUDA
 
 // An optional tensor argument as the library takes it (undefined when absent).
+// Poses [N, J, 3] (and root translations [N, 3]) as a PoseSet for a model's
+// joints; throws fskin::Error naming `what` on a wrong shape.
+fskin::PoseSet pose_set(const torch::Tensor& poses, const std::optional<torch::Tensor>& trans,
+                        const std::vector<std::string>& joint_names, const char* what);
+
 inline torch::Tensor or_undefined(const std::optional<torch::Tensor>& t) { return t ? *t : torch::Tensor(); }
 
 }  // namespace fskin::python

@@ -15,18 +15,6 @@
 namespace fskin::python {
 namespace {
 
-// Poses [N, J, 3] (and root translations [N, 3]) as a PoseSet for a model's joints.
-fskin::PoseSet pose_set(const torch::Tensor& poses, const std::optional<torch::Tensor>& trans,
-                        const std::vector<std::string>& joint_names, const char* what) {
-  fskin::expect_shape(poses, {-1, static_cast<int64_t>(joint_names.size()), 3}, what);
-  fskin::PoseSet set;
-  set.poses = poses.detach().to(torch::kCPU, torch::kFloat32).contiguous();
-  set.trans = trans ? trans->detach().to(torch::kCPU, torch::kFloat32).contiguous() : torch::zeros({poses.size(0), 3});
-  fskin::expect_shape(set.trans, {poses.size(0), 3}, what);
-  set.joint_names = joint_names;
-  return set;
-}
-
 py::dict frame_dict(const fskin::DatasetFrame& f) {
   py::dict d(py::arg("points") = f.points, py::arg("occupancy") = f.occupancy, py::arg("num_uniform") = f.num_uniform,
              py::arg("bone_transforms") = f.bone_transforms, py::arg("pose") = f.pose, py::arg("trans") = f.trans);
@@ -38,6 +26,17 @@ py::dict frame_dict(const fskin::DatasetFrame& f) {
 }
 
 }  // namespace
+
+fskin::PoseSet pose_set(const torch::Tensor& poses, const std::optional<torch::Tensor>& trans,
+                        const std::vector<std::string>& joint_names, const char* what) {
+  fskin::expect_shape(poses, {-1, static_cast<int64_t>(joint_names.size()), 3}, what);
+  fskin::PoseSet set;
+  set.poses = poses.detach().to(torch::kCPU, torch::kFloat32).contiguous();
+  set.trans = trans ? trans->detach().to(torch::kCPU, torch::kFloat32).contiguous() : torch::zeros({poses.size(0), 3});
+  fskin::expect_shape(set.trans, {poses.size(0), 3}, what);
+  set.joint_names = joint_names;
+  return set;
+}
 
 void bind_training(py::module_& m) {
   m.def(

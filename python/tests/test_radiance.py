@@ -53,6 +53,21 @@ def test_composite_rays_has_a_gradient_for_every_input():
     assert torch.autograd.gradcheck(both, (sigma, rgb, delta, background))
 
 
+def test_build_image_dataset_takes_the_clis_options(tmp_path):
+    model = str(tmp_path / "model.npz")
+    fskin.humanoid(resolution=32).save(model)
+    body = fskin.BodyModel.load(model)
+    poses = fskin.training_poses(body, sequences=1, frames=1)
+    fskin.build_image_dataset(model, poses, str(tmp_path / "images"), width=24, height=16, views=1, held_out_views=1,
+                              novel_view_frames=0, supersampling=1, canonical_pose="rest", background=(0, 0, 0))
+    manifest = json.loads((tmp_path / "images" / "manifest.json").read_text())
+    assert manifest["background"] == [0, 0, 0]
+    cameras = np.load(tmp_path / "images" / "train" / "cameras.npz")
+    assert int(cameras["width"]) == 24 and int(cameras["height"]) == 16
+    with pytest.raises(fskin.Error, match="build_image_dataset: poses"):
+        fskin.build_image_dataset(model, poses[:, :3], str(tmp_path / "bad"))
+
+
 def test_image_dataset_training_and_evaluation(tmp_path):
     model = str(tmp_path / "model.npz")
     fskin.humanoid(resolution=40).save(model)
