@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <optional>
 
 #include "fskin/core/error.h"
@@ -298,8 +299,19 @@ TrainerSummary Trainer::run(Trainable& trainable) const {
       }
     }
     const double rate_scale = s.schedule.scale(step, s.steps);
+    // The gradients' global norm (before clipping) goes to the log: spikes
+    // there show a learning rate or a batch too large for the model.
+    double grad_norm = std::numeric_limits<double>::quiet_NaN();
+    torch::Tensor grad_norm_tensor;
     if (has_gradient) {
-      if (s.grad_clip > 0) torch::nn::utils::clip_grad_norm_(parameters, s.grad_clip);
+      if (s.grad_clip > 0) {
+        grad_norm = torch::nn::utils::clip_grad_norm_(parameters, s.grad_clip);
+      } else {
+        std::vector<torch::Tensor> norms;
+        for (const auto& p : parameters)
+          if (p.grad().defined()) norms.push_back(p.grad().detach().norm().to(torch::kFloat64).reshape({1}));
+        if (!norms.empty()) grad_norm_tensor = torch::cat(norms).norm().reshape({1});
+      }
       for (size_t g = 0; g < adam.param_groups().size(); ++g) {
         static_cast<torch::optim::AdamOptions&>(adam.param_groups()[g].options()).lr(base_rates[g] * rate_scale);
       }
@@ -308,8 +320,11 @@ TrainerSummary Trainer::run(Trainable& trainable) const {
     ++step;
 
     // One host read per step for everything the log shows.
-    const auto host = logged_values.cpu();
+    const auto host = (grad_norm_tensor.defined() ? torch::cat({logged_values, grad_norm_tensor.to(logged_values.device())})
+                                                  : logged_values)
+                          .cpu();
     const double* values = host.data_ptr<double>();
+    if (grad_norm_tensor.defined()) grad_norm = values[host.numel() - 1];
     nlohmann::json line = {{"step", step}};
     double loss = 0;
     size_t k = 0;
@@ -329,6 +344,7 @@ TrainerSummary Trainer::run(Trainable& trainable) const {
     line["lr"] = s.learning_rate * rate_scale;
     line["seconds"] = seconds;
     line["threads"] = at::get_num_threads();
+    if (std::isfinite(grad_norm)) line["grad_norm"] = grad_norm;
     for (const auto& [name, value] : losses.host_metrics) line[name] = value;
     if (!losses.throughput.first.empty())
       line[losses.throughput.first] = losses.throughput.second * shard.count / seconds;

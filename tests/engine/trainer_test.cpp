@@ -105,8 +105,32 @@ TEST(EngineTrainer, FitsLogsEveryStepAndCheckpoints) {
   EXPECT_DOUBLE_EQ(lines[5].at("step_twice").get<double>(), 10.0);  // host metrics as given (of step 5)
   for (const char* key : {"w0", "lr", "seconds", "threads", "rows_per_s"}) EXPECT_TRUE(lines[5].contains(key)) << key;
   EXPECT_LT(lines.back().at("mse").get<double>(), 0.05 * lines.front().at("mse").get<double>());
+  // The gradients' norm, before any clipping, shrinks as the fit converges.
+  double early = 0, late = 0;
+  for (size_t i = 0; i < 5; ++i) {
+    early += lines[i].at("grad_norm").get<double>();
+    late += lines[lines.size() - 1 - i].at("grad_norm").get<double>();
+  }
+  EXPECT_GT(early, 2 * late);
   EXPECT_EQ(run.checkpoints().size(), 2u);  // kept: the newest two
   EXPECT_NE(run.checkpoints().front().find("00000060"), std::string::npos);
+}
+
+TEST(EngineTrainer, ClippingLogsTheNormBeforeItClips) {
+  const RunDirectory free(testing::temp_dir("engine_unclipped").string()),
+      clipped(testing::temp_dir("engine_clipped").string());
+  LinearFit a, b;
+  auto s = settings(5);
+  Trainer(free, s).run(a);
+  s.grad_clip = 1e-3;
+  Trainer(clipped, s).run(b);
+  const auto unclipped_lines = read_lines(free.log_file()), clipped_lines = read_lines(clipped.log_file());
+  const double first = unclipped_lines[0].at("grad_norm").get<double>();
+  EXPECT_GT(first, 1e-2);
+  EXPECT_NEAR(clipped_lines[0].at("grad_norm").get<double>(), first, 1e-9 * first);  // the same first step
+  // Adam's first step ignores the gradient's scale; the later ones weigh the
+  // clipped gradients against their moments, so the runs part.
+  EXPECT_FALSE(torch::equal(a.weights(), b.weights()));
 }
 
 TEST(EngineTrainer, LogLinesHoldTheMeanOfLogEverySteps) {
