@@ -22,6 +22,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # The Python module (python/): Debian's torch 1.13 is libtorch-dev's LibTorch.
   python3-dev python3-torch python3-numpy python3-pytest pybind11-dev
+  # Type-checks a user's script against the module's stubs (python/tests/test_stubs.py).
+  mypy
 )
 
 missing=()

@@ -54,7 +54,11 @@ void bind_avatars(py::module_& m) {
       py::arg("held_out_views") = fskin::ImageDatasetOptions{}.held_out_views,
       py::arg("novel_view_frames") = fskin::ImageDatasetOptions{}.novel_view_frames, py::arg("monocular") = false,
       py::arg("supersampling") = fskin::ImageDatasetOptions{}.supersampling, py::arg("canonical_pose") = "default",
-      py::arg("background") = fskin::ImageDatasetOptions{}.background, py::arg("progress") = false,
+      // A tuple, so that the signature's default matches its Tuple type (the stubs, mypy).
+      py::arg("background") = py::make_tuple(fskin::ImageDatasetOptions{}.background[0],
+                                              fskin::ImageDatasetOptions{}.background[1],
+                                              fskin::ImageDatasetOptions{}.background[2]),
+      py::arg("progress") = false,
       "An image dataset as `fskin data images` writes it (PeopleSnapshot's layout), from a model file and poses "
       "[N, J, 3]; size (> 0) sets width and height; returns its summary");
   m.def(

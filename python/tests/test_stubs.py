@@ -61,3 +61,19 @@ def test_every_public_member_has_a_docstring():
                 if not _documentation(member, attribute):
                     missing.append(f"{name}.{member}")
     assert not missing, f"public members without a docstring: {missing}"
+
+
+def test_a_typed_user_script_passes_mypy_against_the_stubs(tmp_path):
+    """mypy (Debian's, installed by scripts/setup.sh) reads python/fskin's stubs and
+    modules; an error in the stubs or a signature that does not say its types fails."""
+    script = ROOT / "python" / "tests" / "typed_user_script.py"
+    result = subprocess.run(["mypy", "--cache-dir", str(tmp_path / "cache"), "--no-error-summary", str(script)],
+                            capture_output=True, text=True,
+                            env=dict(os.environ, MYPYPATH=str(ROOT / "python")))
+    assert result.returncode == 0, result.stdout + result.stderr
+    # The checker sees the types: a wrong one is an error.
+    wrong = tmp_path / "wrong.py"
+    wrong.write_text("import fskin\nfskin.VoxelBox.fit(None, 'thirty-two')\n")
+    result = subprocess.run(["mypy", "--cache-dir", str(tmp_path / "cache"), str(wrong)], capture_output=True,
+                            text=True, env=dict(os.environ, MYPYPATH=str(ROOT / "python")))
+    assert result.returncode == 1 and "VoxelBox" in result.stdout, result.stdout
