@@ -22,6 +22,7 @@
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/engine/stop_signal.h"
 #include "fskin/util/atomic_file.h"
+#include "fskin/util/progress.h"
 
 namespace fskin::cli {
 namespace {
@@ -132,9 +133,9 @@ void register_avatar(CLI::App& app) {
 
   // ---- render
   struct RenderOptions {
-    std::string run, data, split = "novel_pose", index = "0", out, poses, model, cameras;
+    std::string run, data, split = "novel_pose", index = "0", out, poses, bones, model, cameras;
     int64_t pose_index = 0, camera_index = 0;
-    bool compare = false;
+    bool compare = false, animation = false;
     int turntable = 0;
   };
   auto render = std::make_shared<RenderOptions>();
@@ -152,7 +153,14 @@ void register_avatar(CLI::App& app) {
   r->add_option("--poses", render->poses,
                 "instead of the split's pose: a pose file (.npz) posed with the dataset's body model")
       ->check(CLI::ExistingFile);
-  r->add_option("--pose-index", render->pose_index, "pose of --poses")->check(CLI::NonNegativeNumber);
+  r->add_option("--bones", render->bones,
+                "instead of the split's pose: bone transforms (canonical -> posed) of the run's character, an .npz "
+                "with bone_transforms [N, J, 4, 4] as a split's poses.npz holds them; any rig, no body model")
+      ->check(CLI::ExistingFile);
+  r->add_option("--pose-index", render->pose_index, "pose of --poses or --bones")->check(CLI::NonNegativeNumber);
+  r->add_flag("--animation", render->animation,
+              "every pose of --poses or --bones, from the first index's camera, as PNG frames into --out (a "
+              "directory)");
   r->add_option("--model", render->model, "body model for --poses (default: the one the dataset's manifest records)");
   r->add_option("--cameras", render->cameras, "instead of the split's camera: a cameras.npz (OpenCV convention)")
       ->check(CLI::ExistingFile);
@@ -165,14 +173,26 @@ void register_avatar(CLI::App& app) {
     const auto indices = parse_indices(render->index, split.size(), render->split);
     auto bones = split.bone_transforms;
     auto cameras = split.cameras;
+    FSKIN_CHECK(render->poses.empty() || render->bones.empty(), "give --poses or --bones, not both");
+    FSKIN_CHECK(!render->animation || !render->poses.empty() || !render->bones.empty(),
+                "--animation renders the poses of --poses or --bones: give one");
+    FSKIN_CHECK(!render->animation || render->turntable == 0, "give --animation or --turntable, not both");
+    torch::Tensor given_bones;  // [K, J, 4, 4] instead of the split's
+    std::string given_path;
     if (!render->poses.empty()) {
-      FSKIN_CHECK(!render->compare, "--compare needs the split's own poses (there is no ground truth for --poses)");
-      const auto poses = PoseSet::load(render->poses);
-      FSKIN_CHECK(render->pose_index < poses.size(), "--pose-index {} is out of range: {} has {} poses",
-                  render->pose_index, render->poses, poses.size());
-      const auto posed = data.bone_transforms(poses.slice(render->pose_index, render->pose_index + 1), render->poses,
-                                              render->model)[0];
-      for (const int64_t i : indices) bones[i] = posed;
+      given_path = render->poses;
+      given_bones = data.bone_transforms(PoseSet::load(render->poses), render->poses, render->model);
+    } else if (!render->bones.empty()) {
+      given_path = render->bones;
+      given_bones = load_bone_transforms(render->bones, data.character().num_joints());
+    }
+    if (given_bones.defined()) {
+      FSKIN_CHECK(!render->compare, "--compare needs the split's own poses (there is no ground truth for {})",
+                  given_path);
+      FSKIN_CHECK(given_bones.size(0) > 0, "{}: holds no poses", given_path);
+      FSKIN_CHECK(render->pose_index < given_bones.size(0), "--pose-index {} is out of range: {} has {} poses",
+                  render->pose_index, given_path, given_bones.size(0));
+      for (const int64_t i : indices) bones[i] = given_bones[render->pose_index];
     }
     if (!render->cameras.empty()) {
       FSKIN_CHECK(!render->compare, "--compare needs the split's own cameras (there is no ground truth for --cameras)");
@@ -181,6 +201,20 @@ void register_avatar(CLI::App& app) {
                   "--camera-index {} is out of range: {} has {} cameras", render->camera_index, render->cameras,
                   given.size());
       for (const int64_t i : indices) cameras[i] = given[render->camera_index];
+    }
+    if (render->animation) {
+      create_output_directory(render->out);
+      const auto& camera = cameras[indices[0]];
+      ProgressBar bar("rendering " + given_path, given_bones.size(0), true);
+      for (int64_t k = 0; k < given_bones.size(0); ++k) {
+        const auto frame = trained.avatar->pose(given_bones[k]);
+        const auto rgb = trained.avatar->render_image(frame, camera, data.background()).first;
+        write_png((fs::path(render->out) / fmt::format("frame_{:04d}.png", k)).string(), to_image(rgb));
+        bar.advance(1);
+      }
+      bar.finish();
+      std::printf("wrote %lld frames to %s\n", static_cast<long long>(given_bones.size(0)), render->out.c_str());
+      return;
     }
     if (render->turntable > 0) {
       const int64_t i = indices[0];

@@ -164,13 +164,7 @@ ImageSplit ImageDataset::load_split(const std::string& split) const {
   const std::string pose_path = (split_dir / "poses.npz").string();
   FSKIN_CHECK(fs::exists(pose_path), "{}: missing", pose_path);
   const io::NpzReader pose_file(pose_path);
-  out.bone_transforms = pose_file.tensor("bone_transforms");
-  expect_floating(out.bone_transforms, pose_path + ": bone_transforms");
-  out.bone_transforms = out.bone_transforms.to(torch::kFloat32).contiguous();
-  expect_shape(out.bone_transforms, {-1, character_.num_joints(), 4, 4},
-               pose_path + ": bone_transforms (for the " + std::to_string(character_.num_joints()) +
-                   " joints of canonical.npz)");
-  expect_plausible(out.bone_transforms, pose_path + ": bone_transforms");
+  out.bone_transforms = load_bone_transforms(pose_path, character_.num_joints());
   const int64_t n = out.bone_transforms.size(0);
   out.pose_index = pose_file.contains("pose_index") ? pose_file.tensor("pose_index").to(torch::kInt64)
                                                     : torch::arange(n, torch::kInt64);
@@ -217,6 +211,20 @@ torch::Tensor ImageDataset::bone_transforms(const PoseSet& poses, const std::str
                   torch::allclose(canonical.vertices[0], character_.mesh.vertices, 1e-4, 1e-5),
               "{}: {} is not the body model this dataset was built from (its canonical vertices differ)", dir_, path);
   return DatasetPosing::from_model(std::move(model), pose).bone_transforms(poses, context);
+}
+
+torch::Tensor load_bone_transforms(const std::string& path, int64_t joints) {
+  FSKIN_CHECK(fs::exists(path), "{}: missing", path);
+  const io::NpzReader file(path);
+  FSKIN_CHECK(file.contains("bone_transforms"), "{}: no bone_transforms array (canonical -> posed, [N, J, 4, 4])",
+              path);
+  auto bones = file.tensor("bone_transforms");
+  expect_floating(bones, path + ": bone_transforms");
+  bones = bones.to(torch::kFloat32).contiguous();
+  expect_shape(bones, {-1, joints, 4, 4},
+               path + ": bone_transforms (for the " + std::to_string(joints) + " joints of canonical.npz)");
+  expect_plausible(bones, path + ": bone_transforms");
+  return bones;
 }
 
 std::array<int64_t, 4> mask_box(const torch::Tensor& mask, double grow) {

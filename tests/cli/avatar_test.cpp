@@ -15,6 +15,7 @@
 
 #include "fskin/export/image.h"
 #include "fskin/engine/run_lock.h"
+#include "fskin/io/npz.h"
 #include "fskin/util/atomic_file.h"
 #include "test_util.h"
 
@@ -96,6 +97,39 @@ TEST_F(AvatarCommands, RenderComparesWithTheGroundTruth) {
   EXPECT_NE(log().find("--pose-index 5 is out of range"), std::string::npos) << log();
   ASSERT_NE(run_cli("avatar render " + path("run") + " --split train --index 9 --out " + path("x.png")), 0);
   EXPECT_NE(log().find("--index 9 is out of range"), std::string::npos) << log();
+}
+
+// Any rig, no body model: bone transforms (canonical -> posed) as a split's
+// poses.npz holds them, one pose or an animation of every pose.
+TEST_F(AvatarCommands, RenderTakesBoneTransformsAndAnimations) {
+  const std::string bones = path("images/train/poses.npz");
+  ASSERT_EQ(run_cli("avatar render " + path("run") + " --split train --index 2 --out " + path("own.png")), 0) << log();
+  ASSERT_EQ(run_cli("avatar render " + path("run") + " --split train --index 2 --bones " + bones +
+                    " --pose-index 2 --out " + path("given.png")),
+            0)
+      << log();
+  EXPECT_EQ(read_file(path("own.png")), read_file(path("given.png")));  // the same bones, the same camera
+  ASSERT_EQ(run_cli("avatar render " + path("run") + " --split train --index 0 --bones " + bones + " --animation --out " +
+                    path("animation")),
+            0)
+      << log();
+  EXPECT_TRUE(fs::exists(path("animation/frame_0003.png")));  // 2 poses x 2 views in the train split
+  EXPECT_FALSE(fs::exists(path("animation/frame_0004.png")));
+  EXPECT_EQ(read_png(path("animation/frame_0002.png")).width, 32);
+  // Wrong joint count, a missing array, no poses for --animation, both sources.
+  io::NpzWriter wrong;
+  wrong.add("bone_transforms", torch::eye(4).expand({1, 3, 4, 4}).contiguous());
+  wrong.save(path("wrong_bones.npz"));
+  ASSERT_NE(run_cli("avatar render " + path("run") + " --bones " + path("wrong_bones.npz") + " --out " + path("x.png")), 0);
+  EXPECT_NE(log().find("wrong_bones.npz: bone_transforms"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar render " + path("run") + " --bones " + path("held_out.npz") + " --out " + path("x.png")), 0);
+  EXPECT_NE(log().find("no bone_transforms array"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar render " + path("run") + " --animation --out " + path("anim2")), 0);
+  EXPECT_NE(log().find("--animation renders the poses of --poses or --bones"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar render " + path("run") + " --bones " + bones + " --poses " + path("held_out.npz") +
+                    " --out " + path("x.png")),
+            0);
+  EXPECT_NE(log().find("not both"), std::string::npos) << log();
 }
 
 TEST_F(AvatarCommands, TrainingAgainNeedsResume) {

@@ -75,6 +75,12 @@ class ImageDataset {
 // validated (errors name the file and the camera).
 std::vector<PinholeCamera> load_cameras(const std::string& path, int64_t n);
 
+// The canonical -> posed bone transforms [N, J, 4, 4] float32 of a poses.npz
+// (`bone_transforms`, the layout above; a split's own file or one made for
+// new poses) for a character of `joints` joints; validated (floating,
+// finite, rigid-looking), errors name the file.
+torch::Tensor load_bone_transforms(const std::string& path, int64_t joints);
+
 // The box (u0, v0, u1, v1), ends exclusive, of a mask's pixels > 0, grown by
 // `grow` times its size (half on each side) and clipped to the image; the
 // whole image for an empty mask.
