@@ -128,6 +128,13 @@ std::vector<PinholeCamera> load_cameras(const std::string& camera_path, int64_t 
 ImageDataset::ImageDataset(std::string dir) : dir_(std::move(dir)) {
   const auto manifest_path = (fs::path(dir_) / "manifest.json").string();
   const auto manifest = read_json(manifest_path);
+  // The fields a dataset made elsewhere must have (docs/image_datasets.md).
+  for (const auto& [field, example] : {std::pair<const char*, const char*>{"format", "\"fskin-image-dataset\""},
+                                       {"background", "[1, 1, 1] (linear RGB in [0, 1])"},
+                                       {"splits", "[\"train\", \"novel_view\", \"novel_pose\"]"}})
+    FSKIN_CHECK(manifest.is_object() && manifest.contains(field), "{}: no \"{}\" field; an image dataset's manifest needs "
+                "format, background and splits, e.g. \"{}\": {}",
+                manifest_path, field, field, example);
   try {
     FSKIN_CHECK(manifest.at("format").get<std::string>() == "fskin-image-dataset",
                 "{}: format is '{}', not an fskin image dataset", manifest_path, manifest.at("format").dump());

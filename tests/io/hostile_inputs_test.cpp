@@ -564,6 +564,18 @@ TEST(HostileImageDataset, ABackgroundOutsideZeroToOneIsRefused) {
   testing::expect_error([&] { ImageDataset data(dir); }, {"manifest.json", "background", "[0, 1]"});
 }
 
+TEST(HostileImageDataset, AManifestWithoutARequiredFieldNamesIt) {
+  for (const char* field : {"format", "background", "splits"}) {
+    const auto dir = damaged_copy(std::string("no_") + field, [&](const fs::path& d) {
+      auto manifest = json::parse(read_file((d / "manifest.json").string()));
+      manifest.erase(field);
+      spit(d / "manifest.json", manifest.dump());
+    });
+    testing::expect_error([&] { ImageDataset data(dir); },
+                          {"manifest.json", std::string("no \"") + field + "\" field", "needs format, background and splits"});
+  }
+}
+
 TEST(HostileImageDataset, FocalLengthsBeyondALensAreRefused) {
   const auto dir = damaged_copy("focal", [](const fs::path& d) {
     edit_cameras(d, [](torch::Tensor& k, torch::Tensor&) { k.select(-2, 0).select(-1, 0).fill_(1e300); });
