@@ -30,6 +30,7 @@ from ._fskin import (  # noqa: F401
     hash_encoding,
     hash_encoding_table,
     humanoid,
+    import_capture,
     import_character,
     lowpoly_character,
     nearest_vertices,

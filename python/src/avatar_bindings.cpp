@@ -3,6 +3,8 @@
 
 #include <array>
 
+#include "fskin/radiance/capture_import.h"
+
 #include "fskin/body/body_model.h"
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
@@ -61,6 +63,29 @@ void bind_avatars(py::module_& m) {
       py::arg("progress") = false,
       "An image dataset as `fskin data images` writes it (PeopleSnapshot's layout), from a model file and poses "
       "[N, J, 3]; size (> 0) sets width and height; returns its summary");
+  m.def(
+      "import_capture",
+      [](const std::string& capture, const std::string& model, const std::string& out, const std::string& train,
+         const std::string& novel_pose, const std::array<double, 3>& background, const std::string& canonical_pose,
+         bool progress) {
+        fskin::CaptureImportOptions options;
+        options.capture_dir = capture;
+        options.model_path = model;
+        options.out_dir = out;
+        options.train = train;
+        options.novel_pose = novel_pose;
+        options.background = background;
+        options.canonical_pose = canonical_pose;
+        options.progress = progress;
+        py::gil_scoped_release release;
+        return fskin::import_capture(options).to_string();
+      },
+      py::arg("capture"), py::arg("model"), py::arg("out"), py::arg("train") = "0:", py::arg("novel_pose") = "",
+      py::arg("background") = py::make_tuple(1.0, 1.0, 1.0), py::arg("canonical_pose") = "default",
+      py::arg("progress") = false,
+      "`fskin data capture`: a capture in InstantAvatar's PeopleSnapshot layout (cameras.npz, images/, masks/*.npy "
+      "or .png, poses.npz with SMPL parameters) as an image dataset, posed with your SMPL-family model; frame "
+      "ranges 'start:stop:step'; returns its summary");
   m.def(
       "train_avatar",
       [](const std::string& data, const std::string& out, int64_t steps, int64_t rays_per_step, bool resume,

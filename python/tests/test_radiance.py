@@ -102,3 +102,30 @@ def test_image_dataset_training_and_evaluation(tmp_path):
     with pytest.raises(fskin.Error, match="model.occupancy_grid.evry: unknown key"):
         fskin.train_avatar(str(tmp_path / "images"), str(tmp_path / "run3"), steps=1,
                            settings=["model.occupancy_grid.evry=7"])
+
+
+def test_import_capture_reads_a_peoplesnapshot_folder(tmp_path):
+    """A capture made from an fskin image dataset (images, .npy masks, one camera, SMPL-style
+    thetas): the imported dataset trains-ready and holds every frame."""
+    model = str(tmp_path / "model.npz")
+    fskin.humanoid(resolution=32).save(model)
+    body = fskin.BodyModel.load(model)
+    poses = fskin.training_poses(body, sequences=1, frames=3)
+    fskin.build_image_dataset(model, poses, str(tmp_path / "images"), size=24, views=1, held_out_views=1,
+                              novel_view_frames=0, monocular=True, supersampling=1)
+    capture = tmp_path / "capture"
+    (capture / "images").mkdir(parents=True)
+    (capture / "masks").mkdir()
+    split = tmp_path / "images" / "train"
+    for i in range(3):
+        (capture / "images" / f"image_{i:04d}.png").write_bytes((split / "images" / f"image_{i:04d}.png").read_bytes())
+        np.save(capture / "masks" / f"mask_{i:04d}.npy", np.ones((24, 24), dtype=bool))
+    (capture / "cameras.npz").write_bytes((split / "cameras.npz").read_bytes())
+    np.savez(capture / "poses.npz", thetas=poses.reshape(3, -1).numpy(), transl=np.zeros((3, 3), np.float32),
+             betas=np.zeros(10, np.float32))
+    summary = fskin.import_capture(str(capture), model, str(tmp_path / "imported"), train="0:2", novel_pose="2:")
+    assert "train 2" in summary and "novel_pose 1" in summary
+    manifest = json.loads((tmp_path / "imported" / "manifest.json").read_text())
+    assert manifest["splits"] == ["train", "novel_pose"] and manifest["capture_layout"].startswith("PeopleSnapshot")
+    with pytest.raises(fskin.Error, match="--train"):
+        fskin.import_capture(str(capture), model, str(tmp_path / "bad"), train="2:1")

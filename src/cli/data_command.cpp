@@ -8,6 +8,7 @@
 #include "fskin/body/body_model.h"
 #include "fskin/data/dataset_builder.h"
 #include "fskin/benchmarking/stick2d.h"
+#include "fskin/radiance/capture_import.h"
 #include "fskin/radiance/image_dataset.h"
 #include "fskin/radiance/image_dataset_builder.h"
 
@@ -120,6 +121,35 @@ void register_data(CLI::App& app) {
     options.ood_poses_source = images_opt->held_out_poses;
     options.progress = !images_opt->quiet;
     const auto summary = build_image_dataset(model, poses, held_out, options);
+    std::printf("%s: %s\n", options.out_dir.c_str(), summary.to_string().c_str());
+  });
+
+  struct CaptureCommandOptions {
+    CaptureImportOptions capture;
+    bool black_background = false, quiet = false;
+  };
+  auto capture_opt = std::make_shared<CaptureCommandOptions>();
+  auto* capture = cmd->add_subcommand(
+      "capture", "Convert a capture in InstantAvatar's PeopleSnapshot layout (cameras.npz, images/, masks/*.npy or "
+                 ".png, poses.npz with SMPL parameters) into an image dataset, with your SMPL-family model; resumable");
+  capture->add_option("--capture", capture_opt->capture.capture_dir, "capture directory")->required();
+  capture->add_option("--model", capture_opt->capture.model_path, "the SMPL-family model .npz the poses were fitted with")
+      ->required()
+      ->check(CLI::ExistingFile);
+  capture->add_option("--out", capture_opt->capture.out_dir, "output directory")->required();
+  capture->add_option("--train", capture_opt->capture.train, "frames of the train split, start:stop:step (default 0:, all)");
+  capture->add_option("--novel-pose", capture_opt->capture.novel_pose,
+                      "frames of the novel_pose (test) split, start:stop:step");
+  capture->add_option("--canonical-pose", capture_opt->capture.canonical_pose, "canonical pose: default, da or rest")
+      ->check(CLI::IsMember({"default", "da", "rest"}));
+  capture->add_flag("--black-background", capture_opt->black_background,
+                    "composite the photographs over black instead of white");
+  capture->add_flag("--quiet", capture_opt->quiet, "no progress bar");
+  capture->callback([capture_opt] {
+    auto options = capture_opt->capture;
+    if (capture_opt->black_background) options.background = {0, 0, 0};
+    options.progress = !capture_opt->quiet;
+    const auto summary = import_capture(options);
     std::printf("%s: %s\n", options.out_dir.c_str(), summary.to_string().c_str());
   });
 
