@@ -27,6 +27,7 @@ from ._fskin import (  # noqa: F401
     diffuse_weights_to_grid,
     evaluate,
     evaluate_avatar,
+    export_avatar,
     hash_encoding,
     hash_encoding_table,
     humanoid,

@@ -274,6 +274,12 @@ def evaluate_avatar(run: str, split: str = ..., data: str = ..., max_images: int
     ...)"""
     ...
 
+def export_avatar(run: str, out: str, bones: Optional[torch.Tensor] = ..., resolution: int = ..., fps: float = ..., influences: int = ..., data: str = ...) -> None:
+    """`fskin avatar export`: the avatar as a rigged glTF character (.glb/.gltf): its coloured surface
+    (COLOR_0), the skinning weights it is posed with, the dataset's skeleton; bones [T, J, 4, 4]
+    (canonical -> posed) as an animation"""
+    ...
+
 def hash_encoding(positions: torch.Tensor, table: torch.Tensor, levels: int = ..., features_per_level: int = ..., log2_table_size: int = ..., base_resolution: int = ..., per_level_scale: float = ...) -> torch.Tensor:
     """instant-NGP's multi-resolution hash encoding (fused op): positions [N, 3] in the unit cube, table
     [L, 2^T, F] -> features [N, L * F]; differentiable in the table and the positions"""

@@ -3,6 +3,8 @@
 
 #include <array>
 
+#include "fskin/export/skinned_gltf.h"
+#include "fskin/radiance/avatar_export.h"
 #include "fskin/radiance/capture_import.h"
 
 #include "fskin/body/body_model.h"
@@ -86,6 +88,25 @@ void bind_avatars(py::module_& m) {
       "`fskin data capture`: a capture in InstantAvatar's PeopleSnapshot layout (cameras.npz, images/, masks/*.npy "
       "or .png, poses.npz with SMPL parameters) as an image dataset, posed with your SMPL-family model; frame "
       "ranges 'start:stop:step'; returns its summary");
+  m.def(
+      "export_avatar",
+      [](const std::string& run, const std::string& out, const std::optional<torch::Tensor>& bones, int64_t resolution,
+         double fps, int64_t influences, const std::string& data) {
+        py::gil_scoped_release release;
+        auto trained = fskin::TrainedAvatar::load(run);
+        const fskin::ImageDataset dataset(data.empty() ? trained.options.data_dir : data);
+        auto character = fskin::rigged_image_avatar(trained.avatar, dataset.character().skeleton, resolution,
+                                                    bones ? bones->detach().to(torch::kCPU, torch::kFloat32)
+                                                          : torch::Tensor(),
+                                                    fps);
+        character.influences = influences;
+        fskin::write_skinned_gltf(out, character);
+      },
+      py::arg("run"), py::arg("out"), py::arg("bones") = py::none(), py::arg("resolution") = 128, py::arg("fps") = 30.0,
+      py::arg("influences") = 4, py::arg("data") = "",
+      "`fskin avatar export`: the avatar as a rigged glTF character (.glb/.gltf): its coloured surface (COLOR_0), "
+      "the skinning weights it is posed with, the dataset's skeleton; bones [T, J, 4, 4] (canonical -> posed) as "
+      "an animation");
   m.def(
       "train_avatar",
       [](const std::string& data, const std::string& out, int64_t steps, int64_t rays_per_step, bool resume,

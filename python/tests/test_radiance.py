@@ -90,6 +90,9 @@ def test_image_dataset_training_and_evaluation(tmp_path):
                                        32, 32)
     assert rgb.shape == (32, 32, 3) and opacity.shape == (32, 32)
     assert 0.0 < float(opacity.max()) <= 1.0
+    # 30 steps leave no surface to export yet (the export of a trained avatar: tests/radiance/avatar_test.cpp).
+    with pytest.raises(fskin.Error, match="is the avatar trained"):
+        fskin.export_avatar(str(tmp_path / "run"), str(tmp_path / "avatar.glb"), bones=torch.from_numpy(bones))
     # Every avatar option through settings and a config file, as `fskin avatar train --set / --config`.
     config = tmp_path / "avatar.json"
     config.write_text(json.dumps({"model": {"field": {"network": {"hidden_dim": 16}}}}))

@@ -17,6 +17,7 @@
 #include "fskin/export/image.h"
 #include "fskin/io/mesh_io.h"
 #include "fskin/radiance/avatar_evaluation.h"
+#include "fskin/radiance/avatar_export.h"
 #include "fskin/radiance/avatar_mesh.h"
 #include "fskin/radiance/avatar_config.h"
 #include "fskin/radiance/avatar_training.h"
@@ -245,6 +246,49 @@ void register_avatar(CLI::App& app) {
     }
     write_png(render->out, sheet);
     std::printf("wrote %s\n", render->out.c_str());
+  });
+
+  // ---- export
+  struct ExportOptions {
+    std::string run, data, split, bones, out;
+    int64_t resolution = 128, influences = 4;
+    double fps = 30;
+  };
+  auto exported = std::make_shared<ExportOptions>();
+  auto* x = cmd->add_subcommand("export", "The avatar as a rigged glTF character (.glb/.gltf): its coloured surface "
+                                          "with the skinning weights it is posed with, the dataset's skeleton, and "
+                                          "optionally an animation");
+  x->add_option("run", exported->run, "avatar run directory")->required();
+  x->add_option("--out", exported->out, "output .glb or .gltf")->required();
+  x->add_option("--resolution", exported->resolution, "grid samples along the canonical box's longest side")
+      ->check(CLI::Range(int64_t{8}, int64_t{1024}));
+  x->add_option("--data", exported->data, "image dataset (default: the run's)");
+  x->add_option("--split", exported->split, "animate with the bone transforms of this split's images")
+      ->check(CLI::IsMember({"train", "novel_view", "novel_pose"}));
+  x->add_option("--bones", exported->bones, "animate with these bone transforms (.npz, bone_transforms [N, J, 4, 4])")
+      ->check(CLI::ExistingFile);
+  x->add_option("--fps", exported->fps, "frames per second of the animation")->check(CLI::PositiveNumber);
+  x->add_option("--influences", exported->influences,
+                "largest weights kept per vertex (4: what every engine reads; 0: all)")
+      ->check(CLI::NonNegativeNumber);
+  x->callback([exported] {
+    FSKIN_CHECK(exported->split.empty() || exported->bones.empty(), "give --split or --bones, not both");
+    const auto extension = fs::path(exported->out).extension().string();
+    FSKIN_CHECK(extension == ".glb" || extension == ".gltf", "{}: the avatar is written as glTF: name it .glb or .gltf",
+                exported->out);
+    auto trained = TrainedAvatar::load(exported->run);
+    const ImageDataset data(exported->data.empty() ? trained.options.data_dir : exported->data);
+    torch::Tensor bones;
+    if (!exported->split.empty()) bones = data.load_split(exported->split).bone_transforms;
+    if (!exported->bones.empty()) bones = load_bone_transforms(exported->bones, data.character().num_joints());
+    auto character = rigged_image_avatar(trained.avatar, data.character().skeleton, exported->resolution, bones,
+                                         exported->fps);
+    character.influences = exported->influences;
+    write_skinned_gltf(exported->out, character);
+    std::printf("wrote %s (%lld vertices with colours, %lld joints%s)\n", exported->out.c_str(),
+                static_cast<long long>(character.mesh.num_vertices()),
+                static_cast<long long>(character.skeleton.num_joints()),
+                bones.defined() ? fmt::format(", an animation of {} poses", bones.size(0)).c_str() : "");
   });
 
   // ---- mesh

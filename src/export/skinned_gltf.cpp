@@ -50,6 +50,17 @@ void write_skinned_gltf(const std::string& path, const SkinnedCharacter& charact
   primitive.mode = TINYGLTF_MODE_TRIANGLES;
   primitive.attributes["POSITION"] =
       writer.add_floats(character.mesh.vertices, TINYGLTF_TYPE_VEC3, TINYGLTF_TARGET_ARRAY_BUFFER);
+  if (character.mesh.colors.defined()) {
+    // COLOR_0 is linear RGB; fskin's colours are 8-bit sRGB (as images hold them).
+    FSKIN_CHECK(character.mesh.colors.sizes() == torch::IntArrayRef({V, 3}), "{}: colours must be [V, 3], got {}",
+                path, c10::str(character.mesh.colors.sizes()));
+    const auto srgb = character.mesh.colors.to(torch::kFloat32) / 255.0f;
+    const auto linear = torch::where(srgb <= 0.04045f, srgb / 12.92f, ((srgb + 0.055f) / 1.055f).pow(2.4f)).contiguous();
+    const int colors = writer.add_floats(linear, TINYGLTF_TYPE_VEC3, TINYGLTF_TARGET_ARRAY_BUFFER);
+    model.accessors[colors].minValues.clear();
+    model.accessors[colors].maxValues.clear();
+    primitive.attributes["COLOR_0"] = colors;
+  }
   const auto faces = character.mesh.faces.to(torch::kInt32).contiguous();
   tinygltf::Accessor indices;
   indices.bufferView =

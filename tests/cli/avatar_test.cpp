@@ -132,6 +132,19 @@ TEST_F(AvatarCommands, RenderTakesBoneTransformsAndAnimations) {
   EXPECT_NE(log().find("not both"), std::string::npos) << log();
 }
 
+// The export itself is checked on a trained avatar (AvatarTraining in
+// tests/radiance); the fixture's 20-step avatar has no surface yet.
+TEST_F(AvatarCommands, ExportNamesWhatIsWrong) {
+  ASSERT_NE(run_cli("avatar export " + path("run") + " --out " + path("avatar.fbx")), 0);
+  EXPECT_NE(log().find("avatar.fbx: the avatar is written as glTF"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar export " + path("run") + " --split train --bones " + path("images/train/poses.npz") +
+                    " --out " + path("a.glb")),
+            0);
+  EXPECT_NE(log().find("not both"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar export " + path("run") + " --split train --out " + path("a.glb")), 0);
+  EXPECT_NE(log().find("is the avatar trained?"), std::string::npos) << log();
+}
+
 TEST_F(AvatarCommands, TrainingAgainNeedsResume) {
   ASSERT_NE(run_cli("avatar train --data " + path("images") + " --out " + path("run") + " --steps 30 --quiet"), 0);
   EXPECT_NE(log().find("--resume"), std::string::npos) << log();

@@ -1,14 +1,18 @@
 #include "fskin/radiance/avatar.h"
 
 #include <gtest/gtest.h>
+#include <tiny_gltf.h>
 #include <torch/torch.h>
 
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "fskin/radiance/avatar_evaluation.h"
-#include "fskin/radiance/avatar_mesh.h"
+#include "fskin/geometry/character_size.h"
+#include "fskin/import/gltf_import.h"
 #include "fskin/radiance/avatar_config.h"
+#include "fskin/radiance/avatar_evaluation.h"
+#include "fskin/radiance/avatar_export.h"
+#include "fskin/radiance/avatar_mesh.h"
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/radiance/image_metrics.h"
 #include "fskin/skeleton/lbs.h"
@@ -159,6 +163,34 @@ TEST(AvatarTraining, RaisesPsnrResumesAndMeshes) {
   EXPECT_EQ(posed.num_vertices(), canonical.num_vertices());
   EXPECT_TRUE(canonical.colors.defined());
   EXPECT_FALSE(torch::allclose(posed.vertices, canonical.vertices));
+
+  // As a rigged glTF asset with every influence: a player posing it with its
+  // animation moves its vertices as the avatar's deformer does; its colours
+  // are COLOR_0.
+  const auto bones = novel_split.bone_transforms;
+  auto rigged = rigged_image_avatar(trained.avatar, data.character().skeleton, 48, bones, 10);
+  rigged.influences = 0;
+  const auto glb = (testing::temp_dir("avatar_export") / "avatar.glb").string();
+  write_skinned_gltf(glb, rigged);
+  const auto imported = import_gltf(glb, {/*keep_open_parts=*/true});
+  ASSERT_EQ(imported.clips.size(), 1u);
+  const BodyModel player(imported.model, glb);
+  EXPECT_EQ(player.num_joints(), data.character().num_joints());
+  const auto& clip = imported.clips[0].poses;
+  ASSERT_EQ(clip.size(), bones.size(0));
+  const auto played = player.pose(clip.poses, {}, clip.trans).vertices;
+  torch::NoGradGuard no_grad;
+  const auto rest = imported.model.v_template.to(torch::kFloat32);
+  const auto expected = trained.avatar->deformer().deform(rest.unsqueeze(0).expand({bones.size(0), -1, -1}).contiguous(),
+                                                          bones);
+  const double size = character_size(rest);
+  EXPECT_LT((played - expected).abs().max().item<double>(), 1e-4 * size);
+  tinygltf::Model model;
+  std::string error, warning;
+  ASSERT_TRUE(tinygltf::TinyGLTF().LoadBinaryFromFile(&model, &error, &warning, glb)) << error;
+  const auto& attributes = model.meshes.at(0).primitives.at(0).attributes;
+  ASSERT_TRUE(attributes.count("COLOR_0"));
+  EXPECT_EQ(model.accessors[attributes.at("COLOR_0")].count, model.accessors[attributes.at("POSITION")].count);
 }
 
 TEST(AvatarTraining, StopsOnCtrlCWithACheckpoint) {

@@ -4,7 +4,8 @@
 // four largest influences per vertex, renormalised: what every engine and
 // three.js read), or more sets JOINTS_n / WEIGHTS_n for more influences
 // (glTF allows them; Blender reads them), a skin whose joints are nodes of
-// the kinematic tree, and optionally a pose set as an animation.
+// the kinematic tree, and optionally a pose set as an animation. Vertex
+// colours (Mesh::colors, 8-bit sRGB) become COLOR_0 (linear, as glTF wants).
 //
 // Joint nodes carry fskin's joint frames (docs/conventions.md): at rest a
 // joint's translation is rest_j - rest_parent and its rotation the identity,
