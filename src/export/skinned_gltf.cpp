@@ -8,6 +8,8 @@
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
+#include "fskin/geometry/character_size.h"
+#include "fskin/skeleton/pose_from_bones.h"
 #include "fskin/skeleton/rotations.h"
 #include "io/gltf_file.h"
 
@@ -34,6 +36,17 @@ std::pair<torch::Tensor, torch::Tensor> top_influences(const torch::Tensor& weig
     indices = torch::cat({indices, torch::zeros({indices.size(0), k - kept}, torch::kInt64)}, 1);
   }
   return {indices, values};
+}
+
+PoseSet animation_from_bones(const Skeleton& skeleton, const torch::Tensor& bones) {
+  const auto joints = skeleton.rest_joints.to(torch::kFloat32);
+  const auto pose = pose_from_bone_transforms(skeleton.parents, joints, bones);
+  PoseSet animation;
+  animation.poses = pose.local_rotations;
+  animation.trans = pose.root_translation;
+  if (pose.max_joint_drift > 1e-6 * character_size(joints)) animation.joint_translations = pose.joint_translations;
+  animation.joint_names = skeleton.joint_names;
+  return animation;
 }
 
 void write_skinned_gltf(const std::string& path, const SkinnedCharacter& character) {

@@ -4,8 +4,6 @@
 
 #include "fskin/core/device.h"
 #include "fskin/core/error.h"
-#include "fskin/geometry/character_size.h"
-#include "fskin/skeleton/pose_from_bones.h"
 
 namespace fskin {
 
@@ -35,14 +33,7 @@ SkinnedCharacter rigged_avatar(OccupancyModel& model, const std::string& method,
   character.skeleton.parents = skeleton.parents;
   character.skeleton.rest_joints = skeleton.joints.to(torch::kFloat32);
   character.fps = fps;
-  if (bones.defined() && bones.numel() > 0) {
-    const auto pose = pose_from_bone_transforms(skeleton.parents, skeleton.joints, bones);
-    character.animation.poses = pose.local_rotations;
-    character.animation.trans = pose.root_translation;
-    if (pose.max_joint_drift > 1e-6 * character_size(skeleton.joints))
-      character.animation.joint_translations = pose.joint_translations;
-    character.animation.joint_names = skeleton.joint_names;
-  }
+  if (bones.defined() && bones.numel() > 0) character.animation = animation_from_bones(character.skeleton, bones);
   return character;
 }
 

@@ -3,9 +3,7 @@
 #include <torch/torch.h>
 
 #include "fskin/core/error.h"
-#include "fskin/geometry/character_size.h"
 #include "fskin/radiance/avatar_mesh.h"
-#include "fskin/skeleton/pose_from_bones.h"
 
 namespace fskin {
 
@@ -25,14 +23,7 @@ SkinnedCharacter rigged_image_avatar(Avatar& avatar, const Skeleton& canonical_s
   character.skeleton = canonical_skeleton;
   character.skeleton.rest_joints = canonical_skeleton.rest_joints.to(torch::kFloat32);
   character.fps = fps;
-  if (bones.defined() && bones.numel() > 0) {
-    const auto pose = pose_from_bone_transforms(canonical_skeleton.parents, canonical_skeleton.rest_joints, bones);
-    character.animation.poses = pose.local_rotations;
-    character.animation.trans = pose.root_translation;
-    if (pose.max_joint_drift > 1e-6 * character_size(canonical_skeleton.rest_joints))
-      character.animation.joint_translations = pose.joint_translations;
-    character.animation.joint_names = canonical_skeleton.joint_names;
-  }
+  if (bones.defined() && bones.numel() > 0) character.animation = animation_from_bones(character.skeleton, bones);
   return character;
 }
 

@@ -40,6 +40,12 @@ struct SkinnedCharacter : RiggedMesh {
   void validate(const std::string& context) const;
 };
 
+// The animation a skinned asset of `skeleton` (joints in the bind pose) plays
+// for bone transforms [T, J, 4, 4] (bind -> posed): local rotations, the root's
+// translation, and per-joint translations only when the bones move joints off
+// their bind offsets (skeleton/pose_from_bones.h).
+PoseSet animation_from_bones(const Skeleton& skeleton, const torch::Tensor& bones);
+
 // The `k` largest weights per vertex, renormalised: (joint indices [V, k]
 // int64, weights [V, k] float).
 std::pair<torch::Tensor, torch::Tensor> top_influences(const torch::Tensor& weights, int64_t k = 4);
