@@ -293,7 +293,7 @@ def humanoid(height: float = ..., seed: int = ..., resolution: int = ...) -> Bod
     """The built-in 24-joint humanoid (SMPL's joints) as a BodyModel"""
     ...
 
-def import_capture(capture: str, model: str, out: str, train: str = ..., novel_pose: str = ..., background: Tuple[float, float, float] = (1.0, 1.0, 1.0), canonical_pose: str = ..., progress: bool = ...) -> str:
+def import_capture(capture: str, model: str, out: str, train: str = ..., novel_pose: str = ..., train_poses: str = ..., novel_pose_poses: str = ..., background: Tuple[float, float, float] = (1.0, 1.0, 1.0), canonical_pose: str = ..., progress: bool = ...) -> str:
     """`fskin data capture`: a capture in InstantAvatar's PeopleSnapshot layout (cameras.npz, images/,
     masks/*.npy or .png, poses.npz with SMPL parameters) as an image dataset, posed with your SMPL-
     family model; frame ranges 'start:stop:step'; returns its summary"""

@@ -68,14 +68,16 @@ void bind_avatars(py::module_& m) {
   m.def(
       "import_capture",
       [](const std::string& capture, const std::string& model, const std::string& out, const std::string& train,
-         const std::string& novel_pose, const std::array<double, 3>& background, const std::string& canonical_pose,
-         bool progress) {
+         const std::string& novel_pose, const std::string& train_poses, const std::string& novel_pose_poses,
+         const std::array<double, 3>& background, const std::string& canonical_pose, bool progress) {
         fskin::CaptureImportOptions options;
         options.capture_dir = capture;
         options.model_path = model;
         options.out_dir = out;
         options.train = train;
         options.novel_pose = novel_pose;
+        options.train_poses = train_poses;
+        options.novel_pose_poses = novel_pose_poses;
         options.background = background;
         options.canonical_pose = canonical_pose;
         options.progress = progress;
@@ -83,7 +85,7 @@ void bind_avatars(py::module_& m) {
         return fskin::import_capture(options).to_string();
       },
       py::arg("capture"), py::arg("model"), py::arg("out"), py::arg("train") = "0:", py::arg("novel_pose") = "",
-      py::arg("background") = py::make_tuple(1.0, 1.0, 1.0), py::arg("canonical_pose") = "default",
+      py::arg("train_poses") = "", py::arg("novel_pose_poses") = "", py::arg("background") = py::make_tuple(1.0, 1.0, 1.0), py::arg("canonical_pose") = "default",
       py::arg("progress") = false,
       "`fskin data capture`: a capture in InstantAvatar's PeopleSnapshot layout (cameras.npz, images/, masks/*.npy "
       "or .png, poses.npz with SMPL parameters) as an image dataset, posed with your SMPL-family model; frame "

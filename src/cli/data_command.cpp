@@ -140,6 +140,13 @@ void register_data(CLI::App& app) {
   capture->add_option("--train", capture_opt->capture.train, "frames of the train split, start:stop:step (default 0:, all)");
   capture->add_option("--novel-pose", capture_opt->capture.novel_pose,
                       "frames of the novel_pose (test) split, start:stop:step");
+  capture->add_option("--train-poses", capture_opt->capture.train_poses,
+                      "pose file aligned with the train frames (InstantAvatar's poses/anim_nerf_train.npz); default: "
+                      "the capture's poses.npz by frame")
+      ->check(CLI::ExistingFile);
+  capture->add_option("--novel-pose-poses", capture_opt->capture.novel_pose_poses,
+                      "pose file aligned with the novel_pose frames (e.g. poses/anim_nerf_test.npz)")
+      ->check(CLI::ExistingFile);
   capture->add_option("--canonical-pose", capture_opt->capture.canonical_pose, "canonical pose: default, da or rest")
       ->check(CLI::IsMember({"default", "da", "rest"}));
   capture->add_flag("--black-background", capture_opt->black_background,

@@ -183,9 +183,12 @@ ImageDatasetSummary import_capture(const CaptureImportOptions& options) {
   character.skeleton = Skeleton{model.data().joint_names, model.data().parents, canonical.joints[0].contiguous()};
 
   nlohmann::json split_names = nlohmann::json::array(), ranges = nlohmann::json::object();
+  nlohmann::json pose_files = nlohmann::json::object();
   for (const auto& [name, frames] : splits) {
     split_names.push_back(name);
     ranges[name] = name == "train" ? options.train : options.novel_pose;
+    const auto& aligned = name == "train" ? options.train_poses : options.novel_pose_poses;
+    pose_files[name] = aligned.empty() ? "poses.npz" : fs::absolute(aligned).string();
   }
   const nlohmann::json manifest = {
       {"format", "fskin-image-dataset"},
@@ -195,6 +198,7 @@ ImageDatasetSummary import_capture(const CaptureImportOptions& options) {
       {"capture_layout", "PeopleSnapshot (InstantAvatar)"},
       {"body_model_file", fs::absolute(options.model_path).string()},
       {"frame_ranges", ranges},
+      {"pose_files", pose_files},
       {"betas", poses.betas.defined() ? std::vector<float>(poses.betas.data_ptr<float>(),
                                                            poses.betas.data_ptr<float>() + poses.betas.numel())
                                       : std::vector<float>{}},
@@ -216,10 +220,21 @@ ImageDatasetSummary import_capture(const CaptureImportOptions& options) {
     create_output_directory((split_dir / "images").string());
     create_output_directory((split_dir / "masks").string());
     const auto index = torch::tensor(frames, torch::kInt64);
-    const auto posed = model.pose(poses.axis_angle.index_select(0, index), poses.betas.defined()
-                                                                                 ? poses.betas.expand({index.size(0), -1})
-                                                                                 : torch::Tensor(),
-                                  poses.transl.index_select(0, index));
+    const auto& aligned_path = split == "train" ? options.train_poses : options.novel_pose_poses;
+    torch::Tensor axis_angle, transl;
+    if (aligned_path.empty()) {
+      axis_angle = poses.axis_angle.index_select(0, index);
+      transl = poses.transl.index_select(0, index);
+    } else {
+      const auto aligned = read_capture_poses(aligned_path, model);
+      FSKIN_CHECK(aligned.axis_angle.size(0) == index.size(0), "{}: {} poses, but the {} split has {} frames",
+                  aligned_path, aligned.axis_angle.size(0), split, index.size(0));
+      axis_angle = aligned.axis_angle;
+      transl = aligned.transl;
+    }
+    const auto posed = model.pose(axis_angle, poses.betas.defined() ? poses.betas.expand({index.size(0), -1})
+                                                                     : torch::Tensor(),
+                                  transl);
     const auto bones = relative_bone_transforms(posed.bone_transforms, canonical.bone_transforms);
     io::NpzWriter pose_file;
     pose_file.add("bone_transforms", bones.to(torch::kFloat32).contiguous());

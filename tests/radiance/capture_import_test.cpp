@@ -83,6 +83,24 @@ TEST(CaptureImport, APeopleSnapshotCaptureBecomesTheDatasetItWasMadeFrom) {
   EXPECT_TRUE(torch::allclose(held_out.bone_transforms, want.bone_transforms.narrow(0, 4, 2), 1e-5, 1e-5));
   // Run again: everything is there, nothing is written.
   EXPECT_EQ(import_capture(options).images_skipped, 8);
+
+  // Pose files aligned with a split's frames, as InstantAvatar keeps its
+  // refined fits: the novel_pose split from frames 4 and 5's own rows.
+  const io::NpzReader all((capture / "poses.npz").string());
+  io::NpzWriter aligned;
+  aligned.add("global_orient", all.tensor("thetas").narrow(0, 4, 2).narrow(1, 0, 3).contiguous());
+  aligned.add("body_pose", all.tensor("thetas").narrow(0, 4, 2).narrow(1, 3, 69).contiguous());
+  aligned.add("transl", all.tensor("transl").narrow(0, 4, 2).contiguous());
+  aligned.save((capture / "anim_nerf_test.npz").string());
+  auto split_files = options_for(capture, "capture_aligned_out");
+  split_files.train = "0:4";
+  split_files.novel_pose_poses = (capture / "anim_nerf_test.npz").string();
+  import_capture(split_files);
+  EXPECT_TRUE(torch::allclose(ImageDataset(split_files.out_dir).load_split("novel_pose").bone_transforms,
+                              held_out.bone_transforms, 1e-5, 1e-5));
+  split_files.out_dir = testing::temp_dir("capture_aligned_bad").string();
+  split_files.novel_pose = "3:6";
+  testing::expect_error([&] { import_capture(split_files); }, {"anim_nerf_test.npz", "2 poses", "3 frames"});
 }
 
 TEST(CaptureImport, BetasShapeTheCanonicalBody) {

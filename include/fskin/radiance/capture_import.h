@@ -36,6 +36,10 @@ struct CaptureImportOptions {
   std::string capture_dir, model_path, out_dir;
   std::string train = "0:";       // frames of the train split
   std::string novel_pose;         // frames of the novel_pose split (empty: none)
+  // Pose files aligned with a split's frames (row i: the split's i-th frame),
+  // as InstantAvatar keeps its refined fits (poses/anim_nerf_train.npz ...);
+  // empty: DIR/poses.npz, indexed by frame. Betas come from DIR/poses.npz.
+  std::string train_poses, novel_pose_poses;
   std::array<double, 3> background{1.0, 1.0, 1.0};
   std::string canonical_pose = "default";  // dataset_builder.h
   bool progress = true;
