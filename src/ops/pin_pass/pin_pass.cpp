@@ -173,10 +173,8 @@ FusedPinArguments fused_pin_arguments(PinImpl& pin, const torch::Tensor& pose_em
               pin.layers().size(), pin.options().coupling.space_hidden_dim, pin.options().coupling.embedding_dim,
               pin.options().coupling.map_hidden_dim, kMaxLayers, kMaxWidth);
   torch::NoGradGuard no_grad;
-  FusedPinArguments out{pack(pin, pose_embedding.to(torch::kFloat32)), shape_argument(pin)};
-  FSKIN_CHECK(packed_size(describe(out.shape)) == out.packed.size(1),
-              "fused PIN pass: packed {} floats per frame, the kernel expects a different layout", out.packed.size(1));
-  return out;
+  // The op checks the packed size against the shape (pin_pass_kernel), once.
+  return {pack(pin, pose_embedding.to(torch::kFloat32)), shape_argument(pin)};
 }
 
 torch::Tensor fused_pin_pass(PinImpl& pin, const torch::Tensor& points, const torch::Tensor& pose_embedding,
