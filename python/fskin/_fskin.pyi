@@ -325,6 +325,12 @@ def openblas_core() -> Optional[str]:
     """The kernels OpenBLAS runs (openblas_get_corename), or None"""
     ...
 
+def perturb_poses(data: str, out: str, degrees: float = ..., translation: float = ..., seed: int = ...) -> str:
+    """`fskin data perturb-poses`: a copy of an image dataset with noise on its train and novel_view
+    poses (degrees per joint, a root shift as a fraction of the character's size); the exact poses stay
+    in each poses.npz as bone_transforms_exact; returns its summary"""
+    ...
+
 def quadruped(length: float = ..., seed: int = ..., resolution: int = ...) -> BodyModel:
     """The built-in 33-joint quadruped as a BodyModel"""
     ...
@@ -336,6 +342,12 @@ def read_mesh(path: str) -> tuple:
 def recommended_openblas_core() -> Optional[str]:
     """The OPENBLAS_CORETYPE to start Python with where OpenBLAS fell back to its SSE3 kernels on a CPU
     with AVX2 / AVX-512 (the fskin CLI restarts itself with it), or None"""
+    ...
+
+def refined_poses(run: str) -> dict:
+    """`fskin avatar poses`: the training poses a run refined (trained with settings
+    ['pose_refinement.enabled=true']): a dict of bone transforms [F, J, 4, 4] 'given', 'refined',
+    'exact' (None unless the dataset keeps them) and 'summary'"""
     ...
 
 def render_avatar(run: str, bones: torch.Tensor, intrinsic: torch.Tensor, extrinsic: torch.Tensor, width: int, height: int, background: List[float] = [1.0, 1.0, 1.0]) -> tuple:

@@ -14,6 +14,8 @@
 #include "fskin/radiance/avatar_config.h"
 #include "fskin/radiance/avatar_evaluation.h"
 #include "fskin/radiance/avatar_training.h"
+#include "fskin/radiance/pose_perturbation.h"
+#include "fskin/radiance/refined_poses.h"
 #include "fskin/radiance/image_dataset.h"
 #include "fskin/radiance/image_dataset_builder.h"
 #include "fskin/util/blas_threads.h"
@@ -91,6 +93,41 @@ void bind_avatars(py::module_& m) {
       "or .png, poses.npz with SMPL parameters) as an image dataset, posed with your SMPL-family model; frame "
       "ranges 'start:stop:step'; returns its summary");
   m.def(
+      "perturb_poses",
+      [](const std::string& data, const std::string& out, double degrees, double translation, uint64_t seed) {
+        fskin::PosePerturbationOptions options;
+        options.data_dir = data;
+        options.out_dir = out;
+        options.degrees = degrees;
+        options.translation = translation;
+        options.seed = seed;
+        py::gil_scoped_release release;
+        return fskin::perturb_image_dataset_poses(options).to_string();
+      },
+      py::arg("data"), py::arg("out"), py::arg("degrees") = 5.0, py::arg("translation") = 0.01, py::arg("seed") = 0,
+      "`fskin data perturb-poses`: a copy of an image dataset with noise on its train and novel_view poses (degrees "
+      "per joint, a root shift as a fraction of the character's size); the exact poses stay in each poses.npz as "
+      "bone_transforms_exact; returns its summary");
+  m.def(
+      "refined_poses",
+      [](const std::string& run) {
+        fskin::RefinedPoses refined;
+        {
+          py::gil_scoped_release release;
+          refined = fskin::refined_poses(run);
+        }
+        py::dict out;
+        out["given"] = refined.given;
+        out["refined"] = refined.refined;
+        out["exact"] = refined.exact.defined() ? py::cast(refined.exact) : py::none();
+        out["summary"] = refined.to_string();
+        return out;
+      },
+      py::arg("run"),
+      "`fskin avatar poses`: the training poses a run refined (trained with settings "
+      "['pose_refinement.enabled=true']): a dict of bone transforms [F, J, 4, 4] 'given', 'refined', 'exact' (None "
+      "unless the dataset keeps them) and 'summary'");
+  m.def(
       "export_avatar",
       [](const std::string& run, const std::string& out, const std::optional<torch::Tensor>& bones, int64_t resolution,
          double fps, int64_t influences, const std::string& data) {
@@ -142,9 +179,7 @@ void bind_avatars(py::module_& m) {
       "evaluate_avatar",
       [](const std::string& run, const std::string& split, const std::string& data, int64_t max_images) {
         py::gil_scoped_release release;
-        auto trained = fskin::TrainedAvatar::load(run);
-        const fskin::ImageDataset dataset(data.empty() ? trained.options.data_dir : data);
-        const auto scores = fskin::evaluate_avatar(trained.avatar, dataset, split, max_images, false);
+        const auto scores = fskin::evaluate_avatar_run(run, data, split, max_images, false);
         py::gil_scoped_acquire acquire;
         return py::module_::import("json").attr("loads")(scores.to_json());
       },

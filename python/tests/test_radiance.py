@@ -105,6 +105,18 @@ def test_image_dataset_training_and_evaluation(tmp_path):
     with pytest.raises(fskin.Error, match="model.occupancy_grid.evry: unknown key"):
         fskin.train_avatar(str(tmp_path / "images"), str(tmp_path / "run3"), steps=1,
                            settings=["model.occupancy_grid.evry=7"])
+    # Noisy poses, refined while training (`fskin data perturb-poses`, `--refine-poses`, `fskin avatar poses`).
+    assert "2 poses perturbed" in fskin.perturb_poses(str(tmp_path / "images"), str(tmp_path / "noisy"), degrees=5.0)
+    noisy = np.load(tmp_path / "noisy" / "train" / "poses.npz")
+    assert not np.allclose(noisy["bone_transforms"], noisy["bone_transforms_exact"])
+    fskin.train_avatar(str(tmp_path / "noisy"), str(tmp_path / "run4"), steps=3, rays_per_step=64,
+                       settings=["pose_refinement.enabled=true", "pose_refinement.learning_rate=0.01"])
+    refined = fskin.refined_poses(str(tmp_path / "run4"))
+    assert refined["given"].shape == refined["refined"].shape == refined["exact"].shape == (2, body.num_joints, 4, 4)
+    assert not torch.equal(refined["given"], refined["refined"])
+    assert "against the exact poses" in refined["summary"]
+    with pytest.raises(fskin.Error, match="does not refine poses"):
+        fskin.refined_poses(str(tmp_path / "run2"))
 
 
 def test_import_capture_reads_a_peoplesnapshot_folder(tmp_path):

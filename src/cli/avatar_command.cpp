@@ -17,6 +17,7 @@
 #include "fskin/export/image.h"
 #include "fskin/io/mesh_io.h"
 #include "fskin/radiance/avatar_evaluation.h"
+#include "fskin/radiance/refined_poses.h"
 #include "fskin/radiance/avatar_export.h"
 #include "fskin/radiance/avatar_mesh.h"
 #include "fskin/radiance/avatar_config.h"
@@ -85,6 +86,9 @@ void register_avatar(CLI::App& app) {
   t->add_option("--log2-table-size", train->avatar.field.encoding.log2_table_size, "hash-table rows per level (log2)");
   t->add_option("--checkpoint-every", train->checkpoint_every, "steps between checkpoints")->check(CLI::PositiveNumber);
   t->add_option("--seed", train->seed, "random seed");
+  t->add_flag("--refine-poses", train->refine_poses,
+              "learn a correction of every training pose with the avatar (noisy captured poses; "
+              "pose_refinement.* in the config)");
   t->add_option("--config", *config_file,
                  "JSON config overlaid on the options (nested per component; `fskin config show RUN` prints one)");
   t->add_option("--set", *assignments, "config override a.b.c=value after --config (repeatable), e.g. "
@@ -122,14 +126,30 @@ void register_avatar(CLI::App& app) {
   e->add_option("--json", eval->json, "write the scores per image to this JSON file");
   e->add_flag("--quiet", eval->quiet, "no progress bar");
   e->callback([eval] {
-    auto trained = TrainedAvatar::load(eval->run);
-    const ImageDataset data(eval->data.empty() ? trained.options.data_dir : eval->data);
-    const auto scores = evaluate_avatar(trained.avatar, data, eval->split, eval->max_images, !eval->quiet);
+    const auto scores = evaluate_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet);
     std::printf("%s", scores.to_table().c_str());
     const std::string json =
         eval->json.empty() ? (fs::path(eval->run) / fmt::format("eval_{}.json", eval->split)).string() : eval->json;
     write_file_atomically(json, scores.to_json());
     std::printf("wrote %s\n", json.c_str());
+  });
+
+  // ---- poses
+  struct PosesOptions {
+    std::string run, out;
+  };
+  auto poses = std::make_shared<PosesOptions>();
+  auto* p = cmd->add_subcommand("poses", "The training poses a run refined (--refine-poses): the correction, the "
+                                         "error against exact poses when the dataset keeps them, an .npz");
+  p->add_option("run", poses->run, "avatar run directory")->required();
+  p->add_option("--out", poses->out, "write given, refined (and exact) bone transforms to this .npz");
+  p->callback([poses] {
+    const auto refined = refined_poses(poses->run);
+    std::printf("%s\n", refined.to_string().c_str());
+    if (!poses->out.empty()) {
+      refined.save(poses->out);
+      std::printf("wrote %s\n", poses->out.c_str());
+    }
   });
 
   // ---- render

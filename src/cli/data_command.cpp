@@ -9,6 +9,7 @@
 #include "fskin/data/dataset_builder.h"
 #include "fskin/benchmarking/stick2d.h"
 #include "fskin/radiance/capture_import.h"
+#include "fskin/radiance/pose_perturbation.h"
 #include "fskin/radiance/image_dataset.h"
 #include "fskin/radiance/image_dataset_builder.h"
 
@@ -158,6 +159,23 @@ void register_data(CLI::App& app) {
     options.progress = !capture_opt->quiet;
     const auto summary = import_capture(options);
     std::printf("%s: %s\n", options.out_dir.c_str(), summary.to_string().c_str());
+  });
+
+  auto perturb = std::make_shared<PosePerturbationOptions>();
+  auto* perturb_cmd = cmd->add_subcommand(
+      "perturb-poses", "Copy an image dataset with noise on its train and novel_view poses, as a fitted capture has "
+                       "(the exact poses stay in each poses.npz as bone_transforms_exact)");
+  perturb_cmd->add_option("--data", perturb->data_dir, "image dataset directory")->required()->check(CLI::ExistingDirectory);
+  perturb_cmd->add_option("--out", perturb->out_dir, "output directory (new or empty)")->required();
+  perturb_cmd->add_option("--degrees", perturb->degrees, "rotation per joint, about a random axis")
+      ->check(CLI::Range(0.0, 90.0));
+  perturb_cmd->add_option("--translation", perturb->translation,
+                          "root shift in a random direction, as a fraction of the character's size")
+      ->check(CLI::Range(0.0, 1.0));
+  perturb_cmd->add_option("--seed", perturb->seed, "random seed");
+  perturb_cmd->callback([perturb] {
+    const auto summary = perturb_image_dataset_poses(*perturb);
+    std::printf("%s: %s\n", perturb->out_dir.c_str(), summary.to_string().c_str());
   });
 
   auto stick_opt = std::make_shared<StickDatasetOptions>();

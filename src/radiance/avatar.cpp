@@ -184,7 +184,11 @@ RayRender AvatarImpl::render_rays(const PosedFrame& frame, const torch::Tensor& 
   torch::Tensor rgb_dense = torch::zeros({A, S, 3}, torch::TensorOptions(device));
   if (M > 0) {
     DeformerOutput found;
-    {
+    if (frame.bones.requires_grad()) {
+      // Bones being refined (radiance/pose_correction.h): the correspondences
+      // carry the implicit gradient w.r.t. the bones (Fast-SNARF eq. 16-17).
+      found = deformer_->forward(posed.unsqueeze(0), frame.bones.unsqueeze(0));
+    } else {
       // Preset weights and given bones: the correspondences carry no gradient.
       torch::NoGradGuard no_grad;
       found = deformer_->forward(posed.unsqueeze(0), frame.bones.unsqueeze(0));

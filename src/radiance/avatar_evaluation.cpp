@@ -44,7 +44,7 @@ std::string AvatarEvaluation::to_table() const {
 }
 
 AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const std::string& split_name,
-                                 int64_t max_images, bool progress) {
+                                 int64_t max_images, bool progress, const BonesOf& bones_of) {
   FSKIN_CHECK(max_images >= 0, "avatar eval: max images must be >= 0, got {}", max_images);
   const auto split = data.load_split(split_name);
   FSKIN_CHECK(split.size() > 0, "{}: split '{}' has no images", data.dir(), split_name);
@@ -57,7 +57,7 @@ AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const
   std::vector<double> seconds;
   for (const int64_t i : chosen) {
     const auto start = std::chrono::steady_clock::now();
-    const auto frame = avatar->pose(split.bone_transforms[i]);
+    const auto frame = avatar->pose(bones_of ? bones_of(split.bone_transforms[i]) : split.bone_transforms[i]);
     const auto rendered = avatar->render_image(frame, split.cameras[i], data.background()).first;
     AvatarFrameScore score;
     score.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -83,6 +83,14 @@ AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const
   std::sort(seconds.begin(), seconds.end());
   out.median_render_seconds = seconds[seconds.size() / 2];
   return out;
+}
+
+AvatarEvaluation evaluate_avatar_run(const std::string& run_dir, const std::string& data_dir,
+                                     const std::string& split, int64_t max_images, bool progress) {
+  auto trained = TrainedAvatar::load(run_dir);
+  const ImageDataset data(data_dir.empty() ? trained.options.data_dir : data_dir);
+  return evaluate_avatar(trained.avatar, data, split, max_images, progress,
+                         [&trained](const torch::Tensor& given) { return trained.bones_for(given); });
 }
 
 }  // namespace fskin

@@ -2,6 +2,7 @@
 
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <filesystem>
@@ -19,6 +20,7 @@
 #include "fskin/engine/run_directory.h"
 #include "fskin/engine/run_lock.h"
 #include "fskin/engine/trainer.h"
+#include "fskin/geometry/character_size.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin {
@@ -45,6 +47,10 @@ void AvatarTrainOptions::validate() const {
               "avatar train: the Huber delta must be > 0 and the opacity weight >= 0 (finite)");
   FSKIN_CHECK(background == "dataset" || background == "white" || background == "black" || background == "random",
               "avatar train: background must be dataset, white, black or random, got '{}'", background);
+  FSKIN_CHECK(pose_learning_rate > 0 && pose_learning_rate <= 1,
+              "avatar train: the pose learning rate {} must be in (0, 1]", pose_learning_rate);
+  FSKIN_CHECK(std::isfinite(pose_regularizer) && pose_regularizer >= 0,
+              "avatar train: the pose regulariser must be >= 0 (finite), got {}", pose_regularizer);
   FSKIN_CHECK(occupancy_every >= 1 && occupancy_warmup >= 0 && checkpoint_every >= 1 && log_every >= 1,
               "avatar train: occupancy, checkpoint and log intervals must be >= 1");
 }
@@ -52,6 +58,7 @@ void AvatarTrainOptions::validate() const {
 namespace {
 
 constexpr const char* kAvatarArchiveKey = "avatar";
+constexpr const char* kPoseCorrectionsKey = "pose_corrections";  // inside the avatar's archive
 
 // Per image, its mask's box grown by 20 % of its size (ends exclusive).
 std::vector<std::array<int64_t, 4>> mask_boxes(const ImageSplit& split) {
@@ -73,30 +80,51 @@ class AvatarTrainable : public Trainable {
         boxes_(mask_boxes(split)),
         dataset_background_(torch::tensor({data.background()[0], data.background()[1], data.background()[2]},
                                           torch::kFloat32)),
-        frame_id_(static_cast<size_t>(split.size())) {
-    // The views of one pose share its posed frame.
+        frame_(frames_of_images(split.bone_transforms)),
+        skeleton_(data.character().skeleton),
+        size_(character_size(data.character().mesh.vertices, "avatar train: canonical vertices")) {
+    // The views of one pose share its posed frame (and its pose correction).
+    const int64_t frames = frame_.empty() ? 0 : *std::max_element(frame_.begin(), frame_.end()) + 1;
+    std::vector<int64_t> first(static_cast<size_t>(frames), -1);
     for (int64_t i = 0; i < split.size(); ++i) {
-      frame_id_[i] = i;
-      for (int64_t j = 0; j < i; ++j) {
-        if (frame_id_[j] == j && torch::equal(split.bone_transforms[i], split.bone_transforms[j])) {
-          frame_id_[i] = j;
-          break;
-        }
-      }
+      if (first[frame_[i]] < 0) first[frame_[i]] = i;
+    }
+    if (options.refine_poses) {
+      corrections_ = PoseCorrections(split.bone_transforms.index_select(0, torch::tensor(first, torch::kInt64)));
     }
   }
 
-  std::vector<OptimizerGroup> optimizer_groups() override { return {{avatar_->parameters(), options_.learning_rate}}; }
-  std::vector<torch::Tensor> parameters() override { return avatar_->parameters(); }
+  std::vector<OptimizerGroup> optimizer_groups() override {
+    std::vector<OptimizerGroup> groups{{avatar_->parameters(), options_.learning_rate}};
+    if (corrections_) groups.push_back({corrections_->parameters(), options_.pose_learning_rate});
+    return groups;
+  }
+  std::vector<torch::Tensor> parameters() override {
+    auto all = avatar_->parameters();
+    if (corrections_) {
+      for (const auto& p : corrections_->parameters()) all.push_back(p);
+    }
+    return all;
+  }
   void save(torch::serialize::OutputArchive& archive) override {
     torch::serialize::OutputArchive model;
     avatar_->save(model);
+    if (corrections_) {
+      torch::serialize::OutputArchive poses;
+      corrections_->save(poses);
+      model.write(kPoseCorrectionsKey, poses);
+    }
     archive.write(kAvatarArchiveKey, model);
   }
   void load(torch::serialize::InputArchive& archive) override {
     torch::serialize::InputArchive model;
     archive.read(kAvatarArchiveKey, model);
     avatar_->load(model);
+    if (corrections_) {
+      torch::serialize::InputArchive poses;
+      model.read(kPoseCorrectionsKey, poses);
+      corrections_->load(poses);
+    }
   }
   void to(const torch::Device& device) override {
     FSKIN_CHECK(device.is_cpu(), "avatar train: avatars train on the CPU only (asked for {})", device.str());
@@ -108,6 +136,7 @@ class AvatarTrainable : public Trainable {
                 "avatar train: with {} ranks, images per step ({}) must be a multiple of the number of ranks and rays "
                 "per step ({}) a multiple of images per step",
                 shard.count, image_count, options_.rays_per_step);
+    if (corrections_) corrections_->forget_gradients();
     if (step >= options_.occupancy_warmup && step % options_.occupancy_every == 0) {
       avatar_->update_canonical_occupancy();
       ++occupancy_version_;
@@ -115,6 +144,7 @@ class AvatarTrainable : public Trainable {
     const int64_t H = split_.images.size(1), W = split_.images.size(2);
     const auto images = torch::randint(split_.size(), {image_count}, torch::kInt64);
     std::vector<torch::Tensor> colors, opacities, targets, masks;
+    std::vector<int64_t> refined_frames;
     int64_t samples = 0;
     const int64_t share = image_count / shard.count;
     for (int64_t k = shard.index * share; k < (shard.index + 1) * share; ++k) {
@@ -140,7 +170,14 @@ class AvatarTrainable : public Trainable {
       // The image is the subject over the dataset's background: re-composite it over this one.
       const auto target = rgb + (1 - mask).unsqueeze(1) * (background - dataset_background_);
       const auto [origins, directions] = camera_rays(split_.cameras[i], torch::stack({u, v}, 1).to(torch::kFloat32));
-      const auto rendered = avatar_->render_rays(frame_of(i), origins, directions, background, /*jitter=*/true);
+      PosedFrame frame = frame_of(i);
+      if (corrections_) {
+        // The cached frame's grids came from the corrections of its last
+        // refresh; the rays see this step's (differentiable) bones.
+        frame.bones = corrections_->apply(frame_[i], skeleton_, size_);
+        refined_frames.push_back(frame_[i]);
+      }
+      const auto rendered = avatar_->render_rays(frame, origins, directions, background, /*jitter=*/true);
       colors.push_back(rendered.color);
       opacities.push_back(rendered.opacity);
       targets.push_back(target);
@@ -157,6 +194,11 @@ class AvatarTrainable : public Trainable {
     StepLosses out;
     out.total = colour_loss + opacity_loss;
     out.terms = {{"colour", colour_loss.detach()}, {"opacity", opacity_loss.detach()}};
+    if (corrections_) {
+      const auto pose_loss = options_.pose_regularizer * corrections_->squared_size(refined_frames);
+      out.total = out.total + pose_loss;
+      out.terms.push_back({"pose", pose_loss.detach()});
+    }
     out.metrics = {{"psnr", -10 * torch::log10(mse.clamp_min(1e-12))}};
     out.host_metrics = {{"samples_per_ray", static_cast<double>(samples) / options_.rays_per_step},
                         {"canonical_occupied", avatar_->canonical_grid().occupied_fraction()}};
@@ -172,9 +214,12 @@ class AvatarTrainable : public Trainable {
  private:
   // The posed frame of an image's pose, made again after each occupancy update.
   const PosedFrame& frame_of(int64_t image) {
-    auto& entry = frames_[frame_id_[image]];
-    if (!entry.second.bones.defined() || entry.first != occupancy_version_)
-      entry = {occupancy_version_, avatar_->pose(split_.bone_transforms[image])};
+    auto& entry = frames_[frame_[image]];
+    if (!entry.second.bones.defined() || entry.first != occupancy_version_) {
+      const auto bones =
+          corrections_ ? corrections_->apply(frame_[image], skeleton_, size_).detach() : split_.bone_transforms[image];
+      entry = {occupancy_version_, avatar_->pose(bones)};
+    }
     return entry.second;
   }
 
@@ -183,8 +228,11 @@ class AvatarTrainable : public Trainable {
   const ImageSplit& split_;
   std::vector<std::array<int64_t, 4>> boxes_;
   torch::Tensor dataset_background_;
-  std::vector<int64_t> frame_id_;
-  std::map<int64_t, std::pair<int64_t, PosedFrame>> frames_;  // id -> (occupancy version, frame)
+  std::vector<int64_t> frame_;  // per image: its frame (frames_of_images)
+  Skeleton skeleton_;
+  double size_;
+  PoseCorrections corrections_{nullptr};  // with refine_poses
+  std::map<int64_t, std::pair<int64_t, PosedFrame>> frames_;  // frame -> (occupancy version, posed frame)
   int64_t occupancy_version_ = 0;
 };
 
@@ -263,10 +311,29 @@ TrainedAvatar TrainedAvatar::load(const std::string& run_dir) {
   out.options = read_avatar_run_config(config_file, run_dir);
   const auto character = load_canonical_character(run.character_file());
   out.avatar = Avatar(character, out.options.avatar);
+  if (out.options.refine_poses) {
+    out.skeleton = character.skeleton;
+    out.size = character_size(character.mesh.vertices, "avatar: canonical vertices");
+  }
   out.step = load_model_checkpoint(run, CheckpointChoice{}, kAvatarArchiveKey,
-                                   [&out](torch::serialize::InputArchive& archive) { out.avatar->load(archive); });
+                                   [&out, &run_dir](torch::serialize::InputArchive& archive) {
+                                     out.avatar->load(archive);
+                                     if (!out.options.refine_poses) return;
+                                     torch::serialize::InputArchive poses;
+                                     FSKIN_CHECK(archive.try_read(kPoseCorrectionsKey, poses),
+                                                 "{}: the run refines poses but its checkpoint holds no pose "
+                                                 "corrections",
+                                                 run_dir);
+                                     out.corrections = PoseCorrections(PoseCorrectionsImpl::read(poses));
+                                   });
   out.avatar->eval();
   return out;
+}
+
+torch::Tensor TrainedAvatar::bones_for(const torch::Tensor& given) const {
+  if (!corrections) return given;
+  const int64_t frame = corrections->find(given);
+  return frame < 0 ? given : corrections->apply(frame, skeleton, size).detach();
 }
 
 std::pair<torch::Tensor, torch::Tensor> TrainedAvatar::render(const torch::Tensor& bones, const PinholeCamera& camera,

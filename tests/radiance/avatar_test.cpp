@@ -25,28 +25,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-AvatarOptions small_avatar() {
-  AvatarOptions o;
-  o.field.encoding.levels = 8;
-  o.field.encoding.log2_table_size = 14;
-  o.field.hidden_dim = 32;
-  o.skinning_grid_resolution = 32;
-  o.canonical_grid_resolution = 32;
-  o.posed_grid_resolution = 32;
-  return o;
-}
-
-// Training options on the tiny dataset into a fresh run directory `name`/run.
-AvatarTrainOptions tiny_training(const std::string& name, int64_t steps, int64_t rays) {
-  AvatarTrainOptions options;
-  options.data_dir = testing::tiny_image_dataset().dir;
-  options.out_dir = (testing::temp_dir(name) / "run").string();
-  options.avatar = small_avatar();
-  options.steps = steps;
-  options.rays_per_step = rays;
-  options.progress = false;
-  return options;
-}
+using testing::small_avatar;
+using testing::tiny_training;
 
 // The field made constant: density exp(raw) / extent and colour sigmoid(.) everywhere in its box.
 void make_field_constant(Avatar& avatar, double raw_sigma, std::array<double, 3> raw_rgb) {

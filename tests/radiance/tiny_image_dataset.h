@@ -1,7 +1,8 @@
 #pragma once
 // A small image dataset of the built-in character shared by the radiance
 // tests: 3 training poses x 2 views, 2 novel-view and 2 novel-pose images at
-// 40 x 40 pixels, built once per test process.
+// 40 x 40 pixels, built once per test process; a small avatar and its
+// training options on it.
 #include <torch/torch.h>
 
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include "fskin/body/character.h"
 #include "fskin/data/pose_generators.h"
 #include "fskin/radiance/image_dataset.h"
+#include "fskin/radiance/avatar_training.h"
 #include "fskin/radiance/image_dataset_builder.h"
 #include "test_util.h"
 
@@ -47,6 +49,29 @@ inline const TinyImageDataset& tiny_image_dataset() {
     return d;
   }();
   return *data;
+}
+
+inline AvatarOptions small_avatar() {
+  AvatarOptions o;
+  o.field.encoding.levels = 8;
+  o.field.encoding.log2_table_size = 14;
+  o.field.hidden_dim = 32;
+  o.skinning_grid_resolution = 32;
+  o.canonical_grid_resolution = 32;
+  o.posed_grid_resolution = 32;
+  return o;
+}
+
+// Training options on the tiny dataset into a fresh run directory `name`/run.
+inline AvatarTrainOptions tiny_training(const std::string& name, int64_t steps, int64_t rays) {
+  AvatarTrainOptions options;
+  options.data_dir = tiny_image_dataset().dir;
+  options.out_dir = (temp_dir(name) / "run").string();
+  options.avatar = small_avatar();
+  options.steps = steps;
+  options.rays_per_step = rays;
+  options.progress = false;
+  return options;
 }
 
 }  // namespace fskin::testing

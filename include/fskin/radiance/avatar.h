@@ -57,7 +57,8 @@ class AvatarImpl : public torch::nn::Module {
   // The posed frame of bones [J, 4, 4] (float32, canonical -> posed).
   PosedFrame pose(const torch::Tensor& bones);
   // Renders rays (origins, unit directions [R, 3]) against background [R, 3]:
-  // differentiable in the field's parameters. jitter: a random offset of the
+  // differentiable in the field's parameters, and in frame.bones when they
+  // require gradients (pose refinement, radiance/pose_correction.h). jitter: a random offset of the
   // samples along each ray (training), else the samples sit at fixed steps.
   RayRender render_rays(const PosedFrame& frame, const torch::Tensor& origins, const torch::Tensor& directions,
                         const torch::Tensor& background, bool jitter);

@@ -12,6 +12,7 @@
 //   optimizer  type "adam", learning_rate
 //   schedule   type "cosine-decay", decay_fraction, decay_factor
 //   data       path, rays_per_step, images_per_step, mask_box_fraction, background
+//   pose_refinement  enabled, learning_rate, regularizer (pose_correction.h)
 //   run        checkpoint_every, log_every
 //   seed, steps
 //

@@ -1,10 +1,12 @@
 #pragma once
 // PSNR and SSIM of a trained avatar's renders against a split of its image
 // dataset (novel views, novel poses), per image and on average.
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "fskin/radiance/avatar.h"
+#include "fskin/radiance/avatar_training.h"
 
 namespace fskin {
 
@@ -24,10 +26,21 @@ struct AvatarEvaluation {
   std::string to_table() const;
 };
 
+// The bones an image is rendered with, from the bones its split gives
+// (TrainedAvatar::bones_for: refined poses); empty: as given.
+using BonesOf = std::function<torch::Tensor(const torch::Tensor&)>;
+
 // Renders every image of `split` (at most max_images, evenly spread; 0 = all)
 // on the dataset's background and scores it over the whole image (as the
 // avatar papers do) and over the subject's box.
 AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const std::string& split,
-                                 int64_t max_images = 0, bool progress = true);
+                                 int64_t max_images = 0, bool progress = true, const BonesOf& bones_of = {});
+
+// evaluate_avatar for a run directory: its avatar on `data_dir` (empty: the
+// dataset it was trained on), the training poses' images with the run's
+// refined bones when it refines poses (novel views of training poses, as the
+// papers evaluate refined captures).
+AvatarEvaluation evaluate_avatar_run(const std::string& run_dir, const std::string& data_dir,
+                                     const std::string& split, int64_t max_images = 0, bool progress = true);
 
 }  // namespace fskin

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "fskin/radiance/avatar.h"
+#include "fskin/radiance/pose_correction.h"
 #include "fskin/engine/data_parallel.h"
 #include "fskin/engine/stop_signal.h"
 
@@ -34,6 +35,15 @@ struct AvatarTrainOptions {
   // "black" or "random" (a colour per ray; the target is re-composited onto it
   // with the mask).
   std::string background = "random";
+  // Pose refinement (radiance/pose_correction.h): per training frame, a
+  // rotation per joint and a root translation learned with the avatar, at
+  // pose_learning_rate (before the schedule), with pose_regularizer x the
+  // frame's squared correction (radians^2 + (translation / size)^2) added to
+  // the loss. Off: the bones are taken as given (InstantAvatar refines its
+  // poses because fitted captures are noisy).
+  bool refine_poses = false;
+  double pose_learning_rate = 1e-3;
+  double pose_regularizer = 1e-3;
   int64_t occupancy_every = 100;   // steps between canonical occupancy updates
   int64_t occupancy_warmup = 100;  // all cells occupied until this step
   int64_t checkpoint_every = 500;
@@ -67,6 +77,15 @@ struct TrainedAvatar {
   // (rgb [H, W, 3] in [0, 1], opacity [H, W]), without gradients.
   std::pair<torch::Tensor, torch::Tensor> render(const torch::Tensor& bones, const PinholeCamera& camera,
                                                  const std::array<double, 3>& background);
+  // With pose refinement: the training frames' learned corrections, and the
+  // character's skeleton and size they apply with; null without.
+  PoseCorrections corrections{nullptr};
+  Skeleton skeleton;
+  double size = 1;
+  // The bones an image of any split is rendered with: a training frame's
+  // corrected bones where the image's bones are that frame's given ones (the
+  // novel views of training poses), else its own.
+  torch::Tensor bones_for(const torch::Tensor& given) const;
 };
 
 }  // namespace fskin

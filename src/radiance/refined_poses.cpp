@@ -1,0 +1,75 @@
+#include "fskin/radiance/refined_poses.h"
+
+#include <torch/torch.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+#include "fskin/io/npz.h"
+#include "fskin/radiance/avatar_training.h"
+#include "fskin/radiance/image_dataset.h"
+
+namespace fskin {
+
+std::string RefinedPoses::to_string() const {
+  std::string out = fmt::format("{} training frames; mean correction {:.2f} degrees per joint, root shift {:.4f} of the size",
+                                given.defined() ? given.size(0) : 0, mean_rotation_degrees, mean_root_shift);
+  if (exact.defined()) {
+    out += fmt::format(
+        "\nagainst the exact poses: given {:.2f} degrees per joint, joints {:.4f} of the size off; refined {:.2f} "
+        "degrees, {:.4f}",
+        given_error.rotation_degrees, given_error.joint_distance, refined_error.rotation_degrees,
+        refined_error.joint_distance);
+  }
+  return out;
+}
+
+void RefinedPoses::save(const std::string& path) const {
+  io::NpzWriter writer;
+  writer.add("given_bone_transforms", given.contiguous());
+  writer.add("bone_transforms", refined.contiguous());
+  if (exact.defined()) writer.add("bone_transforms_exact", exact.contiguous());
+  writer.save(path);
+}
+
+RefinedPoses refined_poses(const std::string& run_dir) {
+  torch::NoGradGuard no_grad;
+  auto trained = TrainedAvatar::load(run_dir);
+  FSKIN_CHECK(trained.corrections, "{}: the run does not refine poses (train with --refine-poses)", run_dir);
+  const auto& corrections = *trained.corrections;
+  RefinedPoses out;
+  out.given = corrections.given_bones();
+  out.refined = corrections.corrected(trained.skeleton, trained.size);
+  if (corrections.frames() > 0) {
+    out.mean_rotation_degrees = corrections.rotations().norm(2, -1).mean().item<double>() * 180.0 / M_PI;
+    out.mean_root_shift = corrections.translations().norm(2, -1).mean().item<double>();
+  }
+  const auto pose_path = (std::filesystem::path(trained.options.data_dir) / "train" / "poses.npz").string();
+  if (std::filesystem::exists(pose_path) && io::NpzReader(pose_path).contains("bone_transforms_exact")) {
+    const io::NpzReader file(pose_path);
+    const auto given = load_bone_transforms(pose_path, trained.skeleton.num_joints());
+    const auto exact = file.tensor("bone_transforms_exact").to(torch::kFloat32);
+    FSKIN_CHECK(exact.sizes() == given.sizes(), "{}: bone_transforms_exact is {}, bone_transforms {}", pose_path,
+                shape_string(exact.sizes()), shape_string(given.sizes()));
+    std::vector<torch::Tensor> rows;
+    for (int64_t f = 0; f < corrections.frames(); ++f) {
+      int64_t image = -1;
+      for (int64_t i = 0; i < given.size(0) && image < 0; ++i) {
+        if (torch::equal(given[i], out.given[f])) image = i;
+      }
+      FSKIN_CHECK(image >= 0, "{}: frame {} of run {} is not in this file (was the dataset changed?)", pose_path, f,
+                  run_dir);
+      rows.push_back(exact[image]);
+    }
+    out.exact = torch::stack(rows);
+    out.given_error = pose_error(out.given, out.exact, trained.skeleton, trained.size);
+    out.refined_error = pose_error(out.refined, out.exact, trained.skeleton, trained.size);
+  }
+  return out;
+}
+
+}  // namespace fskin
