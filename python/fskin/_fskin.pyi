@@ -238,7 +238,7 @@ def build_dataset(model: str, poses: torch.Tensor, out: str, trans: Optional[tor
     (built_with_embree)"""
     ...
 
-def build_image_dataset(model: str, poses: torch.Tensor, out: str, held_out_poses: Optional[torch.Tensor] = ..., size: int = ..., width: int = ..., height: int = ..., views: int = ..., held_out_views: int = ..., novel_view_frames: int = ..., monocular: bool = ..., supersampling: int = ..., canonical_pose: str = ..., background: Tuple[float, float, float] = (1.0, 1.0, 1.0), progress: bool = ...) -> str:
+def build_image_dataset(model: str, poses: torch.Tensor, out: str, held_out_poses: Optional[torch.Tensor] = ..., size: int = ..., width: int = ..., height: int = ..., views: int = ..., held_out_views: int = ..., novel_view_frames: int = ..., monocular: bool = ..., supersampling: int = ..., canonical_pose: str = ..., background: Tuple[float, float, float] = (1.0, 1.0, 1.0), light: Tuple[float, float, float] = (0.0, 0.0, 0.0), ambient: float = ..., progress: bool = ...) -> str:
     """An image dataset as `fskin data images` writes it (PeopleSnapshot's layout), from a model file
     and poses [N, J, 3]; size (> 0) sets width and height; returns its summary"""
     ...

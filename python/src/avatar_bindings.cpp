@@ -28,7 +28,8 @@ void bind_avatars(py::module_& m) {
       [](const std::string& model_path, const torch::Tensor& poses, const std::string& out,
          const std::optional<torch::Tensor>& held_out_poses, int size, int width, int height, int views,
          int held_out_views, int novel_view_frames, bool monocular, int supersampling,
-         const std::string& canonical_pose, const std::array<double, 3>& background, bool progress) {
+         const std::string& canonical_pose, const std::array<double, 3>& background,
+         const std::array<double, 3>& light, double ambient, bool progress) {
         const auto model = BodyModel::load(model_path);
         const auto& names = model.data().joint_names;
         fskin::ImageDatasetOptions options;
@@ -42,6 +43,8 @@ void bind_avatars(py::module_& m) {
         options.supersampling = supersampling;
         options.canonical_pose = canonical_pose;
         options.background = background;
+        options.light = light;
+        options.ambient = ambient;
         options.progress = progress;
         options.model_source = std::filesystem::absolute(model_path).string();
         options.poses_source = "python";
@@ -64,6 +67,7 @@ void bind_avatars(py::module_& m) {
       py::arg("background") = py::make_tuple(fskin::ImageDatasetOptions{}.background[0],
                                               fskin::ImageDatasetOptions{}.background[1],
                                               fskin::ImageDatasetOptions{}.background[2]),
+      py::arg("light") = py::make_tuple(0.0, 0.0, 0.0), py::arg("ambient") = fskin::ImageDatasetOptions{}.ambient,
       py::arg("progress") = false,
       "An image dataset as `fskin data images` writes it (PeopleSnapshot's layout), from a model file and poses "
       "[N, J, 3]; size (> 0) sets width and height; returns its summary");

@@ -59,9 +59,11 @@ def test_build_image_dataset_takes_the_clis_options(tmp_path):
     body = fskin.BodyModel.load(model)
     poses = fskin.training_poses(body, sequences=1, frames=1)
     fskin.build_image_dataset(model, poses, str(tmp_path / "images"), width=24, height=16, views=1, held_out_views=1,
-                              novel_view_frames=0, supersampling=1, canonical_pose="rest", background=(0, 0, 0))
+                              novel_view_frames=0, supersampling=1, canonical_pose="rest", background=(0, 0, 0),
+                              light=(0.0, 1.0, 0.0), ambient=0.25)
     manifest = json.loads((tmp_path / "images" / "manifest.json").read_text())
     assert manifest["background"] == [0, 0, 0]
+    assert manifest["light"] == [0.0, 1.0, 0.0] and manifest["ambient"] == 0.25
     cameras = np.load(tmp_path / "images" / "train" / "cameras.npz")
     assert int(cameras["width"]) == 24 and int(cameras["height"]) == 16
     with pytest.raises(fskin.Error, match="build_image_dataset: poses"):

@@ -86,6 +86,10 @@ void register_avatar(CLI::App& app) {
   t->add_option("--log2-table-size", train->avatar.field.encoding.log2_table_size, "hash-table rows per level (log2)");
   t->add_option("--checkpoint-every", train->checkpoint_every, "steps between checkpoints")->check(CLI::PositiveNumber);
   t->add_option("--seed", train->seed, "random seed");
+  t->add_option("--shading", train->avatar.field.shading,
+                 "none: one colour per canonical point; lambert: that colour shaded by a learned distant light "
+                 "through the posed surface (captures under fixed lights)")
+      ->check(CLI::IsMember({"none", "lambert"}));
   t->add_flag("--refine-poses", train->refine_poses,
               "learn a correction of every training pose with the avatar (noisy captured poses; "
               "pose_refinement.* in the config)");

@@ -80,6 +80,7 @@ void register_data(CLI::App& app) {
   struct ImagesOptions {
     std::string model, poses, held_out_poses;
     ImageDatasetOptions dataset;
+    std::vector<double> light;
     int size = 0;
     bool quiet = false;
   };
@@ -110,9 +111,17 @@ void register_data(CLI::App& app) {
       ->check(CLI::IsMember({"default", "da", "rest"}));
   images->add_flag("--black-background", [images_opt](int64_t) { images_opt->dataset.background = {0, 0, 0}; },
                    "black instead of white background");
+  images->add_option("--light", images_opt->light,
+                     "X,Y,Z: Lambert-shade the texture by a distant light from this direction (world space; default "
+                     "unlit)")
+      ->expected(3)
+      ->delimiter(',');
+  images->add_option("--ambient", images_opt->dataset.ambient, "the shaded colour's ambient share, with --light")
+      ->check(CLI::Range(0.0, 1.0));
   images->add_flag("--quiet", images_opt->quiet, "no progress bar");
   images->callback([images_opt] {
     auto options = images_opt->dataset;
+    if (!images_opt->light.empty()) options.light = {images_opt->light[0], images_opt->light[1], images_opt->light[2]};
     if (images_opt->size > 0) options.width = options.height = images_opt->size;
     const auto model = BodyModel::load(images_opt->model);
     const auto poses = PoseSet::load(images_opt->poses);

@@ -196,7 +196,14 @@ RayRender AvatarImpl::render_rays(const PosedFrame& frame, const torch::Tensor& 
     const int64_t I = found.valid.size(2);
     const auto valid = found.valid[0].reshape({-1}).to(device);
     const auto candidates = found.x_canonical[0].reshape({-1, 3}).to(device).index({valid});
-    const auto sample = field_->forward(candidates);
+    torch::Tensor rotations;
+    if (field_->options().lambert()) {
+      // Each candidate's blended bone rotation sum_j w_j(x) R_j (LBS of its normal).
+      const auto weights = skinning_->weights(candidates.to(torch::kCPU)).to(device);
+      const auto R = frame.bones.narrow(1, 0, 3).narrow(2, 0, 3).to(device).reshape({-1, 9});
+      rotations = torch::matmul(weights, R).reshape({-1, 3, 3});
+    }
+    const auto sample = field_->forward(candidates, rotations);
     const auto sigma_all = torch::zeros({M * I}, sample.sigma.options()).index_put({valid}, sample.sigma).reshape({M, I});
     const auto rgb_all =
         torch::zeros({M * I, 3}, sample.rgb.options()).index_put({valid}, sample.rgb).reshape({M, I, 3});

@@ -49,6 +49,7 @@ const Field kFields[] = {
                        avatar.field.encoding.per_level_scale),
     FSKIN_AVATAR_FIELD("/model/field/network/hidden_dim", "hidden_dim", avatar.field.hidden_dim),
     FSKIN_AVATAR_FIELD("/model/field/network/hidden_layers", "hidden_layers", avatar.field.hidden_layers),
+    FSKIN_AVATAR_FIELD("/model/field/shading", "shading", avatar.field.shading),
     FSKIN_AVATAR_FIELD("/model/skinning/grid_resolution", "skinning_grid_resolution", avatar.skinning_grid_resolution),
     FSKIN_AVATAR_FIELD("/model/deformer/start_bones", "start_bones", avatar.start_bones),
     FSKIN_AVATAR_FIELD("/model/occupancy_grid/canonical_resolution", "canonical_grid_resolution",

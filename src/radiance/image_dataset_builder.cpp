@@ -19,6 +19,7 @@
 #include "fskin/data/dataset_builder.h"
 #include "fskin/export/image.h"
 #include "fskin/export/render.h"
+#include "fskin/geometry/mesh_topology.h"
 #include "fskin/io/npz.h"
 #include "fskin/radiance/avatar_character.h"
 #include "fskin/radiance/image_dataset.h"
@@ -85,6 +86,9 @@ void ImageDatasetOptions::validate() const {
   FSKIN_CHECK(novel_view_frames >= 0, "image dataset: novel-view frames must be >= 0, got {}", novel_view_frames);
   for (const double c : background)
     FSKIN_CHECK(c >= 0 && c <= 1, "image dataset: background components must be within [0, 1], got {}", c);
+  for (const double c : light)
+    FSKIN_CHECK(std::isfinite(c), "image dataset: the light direction must be finite, got {}", c);
+  FSKIN_CHECK(ambient >= 0 && ambient <= 1, "image dataset: ambient must be within [0, 1], got {}", ambient);
 }
 
 std::string ImageDatasetSummary::to_string() const {
@@ -108,6 +112,10 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
   character.skeleton = Skeleton{names, model.data().parents, canonical.joints[0].contiguous()};
   const auto& bind_vertices = character.mesh.vertices;
   const SurfaceTexture texture(bind_vertices, character.weights, names);
+  const Eigen::Vector3d light_d(options.light[0], options.light[1], options.light[2]);
+  const bool lit = light_d.norm() > 0;
+  const Eigen::Vector3f light = lit ? Eigen::Vector3f(light_d.normalized().cast<float>()) : Eigen::Vector3f::Zero();
+  const float ambient = static_cast<float>(options.ambient);
   const auto centre = ((std::get<0>(bind_vertices.min(0)) + std::get<0>(bind_vertices.max(0))) / 2);
 
   // Every image: posed bones and vertices.
@@ -176,7 +184,7 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
   nlohmann::json counts = nlohmann::json::object();
   for (const auto& split : image_split_names()) counts[split] = 0;
   for (const auto& item : plan) counts[item.split] = counts[item.split].get<int64_t>() + 1;
-  const nlohmann::json manifest = {
+  nlohmann::json manifest = {
       {"format", "fskin-image-dataset"},
       {"format_version", kImageDatasetFormatVersion},
       {"fskin_version", FSKIN_VERSION},
@@ -197,10 +205,15 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
       {"elevation_degrees", options.elevation_degrees},
       {"vertical_fov_degrees", options.vertical_fov_degrees},
       {"background", background},
-      {"texture", "fskin SurfaceTexture (unlit albedo)"},
+      {"texture", lit ? "fskin SurfaceTexture, Lambert-shaded by a distant light"
+                      : "fskin SurfaceTexture (unlit albedo)"},
       {"counts", counts},
       {"splits", image_split_names()},
   };
+  if (lit) {
+    manifest["light"] = {options.light[0], options.light[1], options.light[2]};
+    manifest["ambient"] = options.ambient;
+  }
   const fs::path dir(options.out_dir);
   const BuildManifest build_manifest(options.out_dir, manifest);
   save_canonical_character(character, (dir / "canonical.npz").string());
@@ -262,6 +275,8 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
         continue;
       }
       const Mesh mesh{item->vertices, character.mesh.faces, {}};
+      const auto normals = lit ? vertex_normals(mesh).to(torch::kFloat32).contiguous() : torch::Tensor();
+      const float* normal_data = lit ? normals.data_ptr<float>() : nullptr;
       const auto shade = [&](int64_t face, float b0, float b1, float b2) {
         thread_local std::vector<float> w;
         w.assign(J, 0.0f);
@@ -272,7 +287,12 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
           p += b[k] * Eigen::Map<const Eigen::Vector3f>(canonical_vertices + 3 * v);
           for (int64_t j = 0; j < J; ++j) w[j] += b[k] * weight_data[v * J + j];
         }
-        return texture.albedo(p, w.data());
+        const Eigen::Vector3f albedo = texture.albedo(p, w.data());
+        if (!lit) return albedo;
+        Eigen::Vector3f n = Eigen::Vector3f::Zero();
+        for (int k = 0; k < 3; ++k) n += b[k] * Eigen::Map<const Eigen::Vector3f>(normal_data + 3 * faces[3 * face + k]);
+        const float lambert = std::max(0.0f, n.normalized().dot(light));
+        return Eigen::Vector3f(albedo * (ambient + (1 - ambient) * lambert));
       };
       const auto render = render_surface(mesh, views[item->view_index], options.supersampling, shade, background8);
       write_png(image_path.string(), render.image);

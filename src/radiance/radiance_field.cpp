@@ -14,6 +14,8 @@ void RadianceFieldOptions::validate() const {
               hidden_dim);
   FSKIN_CHECK(hidden_layers >= 1 && hidden_layers <= 16, "radiance field: hidden_layers must be within 1..16, got {}",
               hidden_layers);
+  FSKIN_CHECK(shading == "none" || shading == "lambert", "radiance field: shading must be none or lambert, got '{}'",
+              shading);
 }
 
 RadianceFieldImpl::RadianceFieldImpl(RadianceFieldOptions options, std::array<double, 3> lower,
@@ -28,11 +30,18 @@ RadianceFieldImpl::RadianceFieldImpl(RadianceFieldOptions options, std::array<do
   }
   table_ = register_parameter("table", hash_encoding_table(options_.encoding));
   // Density and colour from the encoded point (eq. 18-19).
-  mlp_ = register_module("mlp", relu_mlp({options_.encoding.output_dim(), /*output_dim=*/4, options_.hidden_dim,
+  const int64_t outputs = options_.lambert() ? 7 : 4;  // sigma, albedo (, n)
+  mlp_ = register_module("mlp", relu_mlp({options_.encoding.output_dim(), outputs, options_.hidden_dim,
                                           options_.hidden_layers}));
+  if (options_.lambert()) {
+    // A light from above-front, and a = softplus(0.5) ~ 0.97 so that the
+    // first colours are about the albedo; the field learns both.
+    light_ = register_parameter("light", torch::tensor({0.0f, 0.5f, 0.5f}));
+    ambient_ = register_parameter("ambient", torch::tensor(0.5f));
+  }
 }
 
-RadianceSample RadianceFieldImpl::forward(const torch::Tensor& x) {
+RadianceSample RadianceFieldImpl::forward(const torch::Tensor& x, const torch::Tensor& rotations) {
   expect_shape(x, {-1, 3}, "radiance field: points");
   const auto lower = torch::tensor({lower_[0], lower_[1], lower_[2]}, x.options());
   const auto upper = torch::tensor({upper_[0], upper_[1], upper_[2]}, x.options());
@@ -45,7 +54,13 @@ RadianceSample RadianceFieldImpl::forward(const torch::Tensor& x) {
   // useful gradient at any scale; sigma * step is then the same for a
   // character of any size. Clamped so that exp cannot overflow.
   const auto sigma = torch::exp(raw.select(1, 0).clamp(-15, 15)) / extent_ * inside.to(raw.scalar_type());
-  const auto rgb = torch::sigmoid(raw.slice(1, 1, 4));
+  auto rgb = torch::sigmoid(raw.slice(1, 1, 4));
+  if (options_.lambert() && rotations.defined()) {
+    expect_shape(rotations, {x.size(0), 3, 3}, "radiance field: rotations");
+    const auto posed_normal = torch::matmul(rotations.to(raw.scalar_type()), raw.slice(1, 4, 7).unsqueeze(2)).squeeze(2);
+    const auto shade = torch::softplus(ambient_) + torch::relu(torch::matmul(posed_normal, light_));
+    rgb = rgb * shade.unsqueeze(1);
+  }
   return {sigma, rgb};
 }
 

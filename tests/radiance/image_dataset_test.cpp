@@ -196,6 +196,34 @@ TEST(ImageDataset, MonocularHasOneCameraAndATurningSubject) {
   EXPECT_FALSE(torch::equal(train.images[0], train.images[1]));
 }
 
+TEST(ImageDataset, ALightShadesTheSurfaceAsItFacesTheLight) {
+  const auto& tiny = testing::tiny_image_dataset();
+  const auto dir = testing::temp_dir("image_dataset_lit");
+  auto options = testing::tiny_image_options(dir.string());
+  options.light = {0.0, 1.0, 0.0};  // from above
+  options.ambient = 0.2;
+  build_image_dataset(tiny.model, tiny.poses, tiny.held_out, options);
+  const auto manifest = nlohmann::json::parse(read_file((dir / "manifest.json").string()));
+  EXPECT_EQ(manifest.at("light"), nlohmann::json({0.0, 1.0, 0.0}));
+  EXPECT_DOUBLE_EQ(manifest.at("ambient").get<double>(), 0.2);
+  const auto lit = ImageDataset(dir.string()).load_split("train");
+  const auto unlit = ImageDataset(tiny.dir).load_split("train");
+  // Same silhouettes; the subject no brighter anywhere, and darker on the whole.
+  EXPECT_TRUE(torch::equal(lit.masks, unlit.masks));
+  const auto subject = (unlit.masks == 255).unsqueeze(-1).expand_as(unlit.images);
+  const auto lit_subject = lit.images.masked_select(subject).to(torch::kFloat32);
+  const auto unlit_subject = unlit.images.masked_select(subject).to(torch::kFloat32);
+  EXPECT_LE((lit_subject - unlit_subject).max().item<double>(), 1.0);
+  EXPECT_LT(lit_subject.mean().item<double>(), 0.9 * unlit_subject.mean().item<double>());
+  // Surfaces facing away keep the ambient share, those facing the light nearly all.
+  const auto ratio = lit_subject / unlit_subject.clamp_min(40);
+  EXPECT_LT(ratio.min().item<double>(), 0.35);
+  EXPECT_GT(ratio.max().item<double>(), 0.9);
+  auto bad = options;
+  bad.ambient = 1.5;
+  testing::expect_error([&] { build_image_dataset(tiny.model, tiny.poses, tiny.held_out, bad); }, {"ambient"});
+}
+
 TEST(SurfaceTexture, GivesEveryRigDetailAndTheSmplCharacterAFace) {
   const auto& tiny = testing::tiny_image_dataset();
   const ImageDataset data(tiny.dir);

@@ -4,7 +4,7 @@
 //
 //   model      type "fast-snarf-avatar"; field {encoding {type "hash", levels,
 //              features_per_level, log2_table_size, base_resolution,
-//              per_level_scale}, network {hidden_dim, hidden_layers}};
+//              per_level_scale}, network {hidden_dim, hidden_layers}, shading};
 //              skinning {grid_resolution}; deformer {start_bones};
 //              occupancy_grid {canonical_resolution, posed_resolution,
 //              opacity, every, warmup}; rendering {samples_per_diagonal}

@@ -26,6 +26,13 @@ struct ImageDatasetOptions {
   double vertical_fov_degrees = 30;
   int novel_view_frames = 8;  // training poses (evenly spread) seen from the held-out views
   std::array<double, 3> background{1.0, 1.0, 1.0};
+  // Lambert shading by a fixed distant light (world space, towards the
+  // light; zero: unlit albedo): colour = albedo x (ambient + (1 - ambient)
+  // max(0, n . l)) with the posed surface's interpolated vertex normals, no
+  // specular, no shadows. The shade of a body part then changes as it turns
+  // and bends, as in a capture under a fixed lamp.
+  std::array<double, 3> light{0.0, 0.0, 0.0};
+  double ambient = 0.3;
   std::string canonical_pose = "default";  // dataset_builder.h
   std::string model_source, poses_source, ood_poses_source;  // recorded in the manifest
   bool progress = true;

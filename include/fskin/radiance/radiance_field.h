@@ -3,11 +3,22 @@
 // InstantAvatar): the multi-resolution hash encoding (ops/hash_encoding.h) of
 // the canonical point, normalised into the unit cube of the canonical box,
 // followed by a small ReLU MLP (networks/relu_mlp.h) to density sigma >= 0 (per metre) and colour in
-// [0, 1]. Colour does not depend on the view direction (the avatar's albedo
-// under fixed light).
+// [0, 1]. Colour does not depend on the view direction.
+//
+// Shading (fskin's addition, not in the papers): with shading "none" the
+// colour is one albedo per canonical point (the avatar under unchanging
+// light). With "lambert" the MLP also gives a normal-like vector n at the
+// canonical point, and a posed sample's colour is
+//   albedo x (a + max(0, (R n) . d)),
+// R the sample's blended bone rotation (LBS applied to n, as to a normal), d
+// a learned light (direction x strength) and a a learned ambient term: a
+// diffuse surface under one distant light fixed in the world, whose shade
+// follows the posed surface as the body turns and bends, in poses never
+// seen as well (R comes from the pose, not from a per-frame code).
 #include <torch/torch.h>
 
 #include <array>
+#include <string>
 
 #include "fskin/ops/hash_encoding.h"
 
@@ -18,7 +29,9 @@ struct RadianceFieldOptions {
                                /*base_resolution=*/16, /*per_level_scale=*/1.45};
   int64_t hidden_dim = 64;
   int64_t hidden_layers = 2;
+  std::string shading = "none";  // "none" or "lambert" (above)
   void validate() const;
+  bool lambert() const { return shading == "lambert"; }
 };
 
 struct RadianceSample {
@@ -33,8 +46,10 @@ class RadianceFieldImpl : public torch::nn::Module {
   RadianceFieldImpl(RadianceFieldOptions options, std::array<double, 3> lower, std::array<double, 3> upper);
 
   // x [N, 3] canonical -> density and colour (points outside the box have
-  // zero density).
-  RadianceSample forward(const torch::Tensor& x);
+  // zero density). rotations [N, 3, 3]: the samples' blended bone rotations
+  // (canonical -> posed) for Lambert shading; undefined (or shading "none"):
+  // the colour is the albedo.
+  RadianceSample forward(const torch::Tensor& x, const torch::Tensor& rotations = {});
   torch::Tensor density(const torch::Tensor& x) { return forward(x).sigma; }
 
   const RadianceFieldOptions& options() const { return options_; }
@@ -49,6 +64,7 @@ class RadianceFieldImpl : public torch::nn::Module {
   double unit_ = 1;       // length unit (character size / 1.7 m): sigma is per metre at 1.7 m
   torch::Tensor table_;   // [L, 2^T, F]
   torch::nn::Sequential mlp_{nullptr};
+  torch::Tensor light_, ambient_;  // "lambert": d [3] and a's pre-softplus value
 };
 TORCH_MODULE(RadianceField);
 
