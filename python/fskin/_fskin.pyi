@@ -269,9 +269,9 @@ def evaluate(run: str, split: str = ..., data: str = ..., checkpoint: str = ...,
     """IoU_bbox / IoU_surf of a trained run on a split, as `fskin eval` computes them"""
     ...
 
-def evaluate_avatar(run: str, split: str = ..., data: str = ..., max_images: int = ...) -> Any:
+def evaluate_avatar(run: str, split: str = ..., data: str = ..., max_images: int = ..., fit_poses: int = ...) -> Any:
     """`fskin avatar eval`: PSNR / SSIM per image of a split, as a dict (mean_psnr, mean_ssim, frames,
-    ...)"""
+    ...); fit_poses > 0: each image's pose fitted to it first (test-time pose optimisation)"""
     ...
 
 def export_avatar(run: str, out: str, bones: Optional[torch.Tensor] = ..., resolution: int = ..., fps: float = ..., influences: int = ..., data: str = ...) -> None:

@@ -181,14 +181,19 @@ void bind_avatars(py::module_& m) {
       "and a config file");
   m.def(
       "evaluate_avatar",
-      [](const std::string& run, const std::string& split, const std::string& data, int64_t max_images) {
+      [](const std::string& run, const std::string& split, const std::string& data, int64_t max_images,
+         int64_t fit_poses) {
+        fskin::PoseFittingOptions fitting;
+        fitting.steps = fit_poses;
         py::gil_scoped_release release;
-        const auto scores = fskin::evaluate_avatar_run(run, data, split, max_images, false);
+        const auto scores = fskin::evaluate_avatar_run(run, data, split, max_images, false, fitting);
         py::gil_scoped_acquire acquire;
         return py::module_::import("json").attr("loads")(scores.to_json());
       },
       py::arg("run"), py::arg("split") = "novel_view", py::arg("data") = "", py::arg("max_images") = 0,
-      "`fskin avatar eval`: PSNR / SSIM per image of a split, as a dict (mean_psnr, mean_ssim, frames, ...)");
+      py::arg("fit_poses") = 0,
+      "`fskin avatar eval`: PSNR / SSIM per image of a split, as a dict (mean_psnr, mean_ssim, frames, ...); "
+      "fit_poses > 0: each image's pose fitted to it first (test-time pose optimisation)");
   m.def(
       "render_avatar",
       [](const std::string& run, const torch::Tensor& bones, const torch::Tensor& intrinsic,

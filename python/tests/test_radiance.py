@@ -83,6 +83,8 @@ def test_image_dataset_training_and_evaluation(tmp_path):
     assert result["last_step"] == 30
     scores = fskin.evaluate_avatar(str(tmp_path / "run"), split="train")
     assert scores["images"] == 4 and scores["mean_psnr"] > 10
+    fitted = fskin.evaluate_avatar(str(tmp_path / "run"), split="train", max_images=1, fit_poses=2)
+    assert fitted["pose_fitting_steps"] == 2 and scores["pose_fitting_steps"] == 0
     # A render of a training image's pose and camera, through the bindings.
     split_dir = tmp_path / "images" / "train"
     cam = np.load(split_dir / "cameras.npz")

@@ -117,7 +117,7 @@ void register_avatar(CLI::App& app) {
   // ---- eval
   struct EvalOptions {
     std::string run, data, split = "novel_view", json;
-    int64_t max_images = 0;
+    int64_t max_images = 0, fit_poses = 0;
     bool quiet = false;
   };
   auto eval = std::make_shared<EvalOptions>();
@@ -128,9 +128,16 @@ void register_avatar(CLI::App& app) {
   e->add_option("--max-images", eval->max_images, "evaluate at most this many images, evenly spread (0: all)")
       ->check(CLI::NonNegativeNumber);
   e->add_option("--json", eval->json, "write the scores per image to this JSON file");
+  e->add_option("--fit-poses", eval->fit_poses,
+                 "fit each image's pose to it first with this many steps (test-time pose optimisation, the avatar "
+                 "frozen; scores then measure the avatar given the best pose per image)")
+      ->check(CLI::NonNegativeNumber);
   e->add_flag("--quiet", eval->quiet, "no progress bar");
   e->callback([eval] {
-    const auto scores = evaluate_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet);
+    PoseFittingOptions fitting;
+    fitting.steps = eval->fit_poses;
+    const auto scores =
+        evaluate_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet, fitting);
     std::printf("%s", scores.to_table().c_str());
     const std::string json =
         eval->json.empty() ? (fs::path(eval->run) / fmt::format("eval_{}.json", eval->split)).string() : eval->json;

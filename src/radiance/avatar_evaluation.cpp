@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fskin/core/error.h"
+#include "fskin/geometry/character_size.h"
 #include "fskin/radiance/image_metrics.h"
 #include "fskin/util/progress.h"
 
@@ -30,6 +31,7 @@ std::string AvatarEvaluation::to_json() const {
                         {"mean_ssim", mean_ssim},
                         {"mean_psnr_subject_box", mean_psnr_subject_box},
                         {"median_render_seconds", median_render_seconds},
+                        {"pose_fitting_steps", pose_fitting_steps},
                         {"frames", rows}}
              .dump(2) +
          "\n";
@@ -56,8 +58,9 @@ AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const
   ProgressBar bar("avatar eval " + split_name, n, progress);
   std::vector<double> seconds;
   for (const int64_t i : chosen) {
+    const auto bones = bones_of ? bones_of(split, i) : split.bone_transforms[i];
     const auto start = std::chrono::steady_clock::now();
-    const auto frame = avatar->pose(bones_of ? bones_of(split.bone_transforms[i]) : split.bone_transforms[i]);
+    const auto frame = avatar->pose(bones);
     const auto rendered = avatar->render_image(frame, split.cameras[i], data.background()).first;
     AvatarFrameScore score;
     score.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -86,11 +89,20 @@ AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const
 }
 
 AvatarEvaluation evaluate_avatar_run(const std::string& run_dir, const std::string& data_dir,
-                                     const std::string& split, int64_t max_images, bool progress) {
+                                     const std::string& split, int64_t max_images, bool progress,
+                                     const PoseFittingOptions& fitting) {
   auto trained = TrainedAvatar::load(run_dir);
   const ImageDataset data(data_dir.empty() ? trained.options.data_dir : data_dir);
-  return evaluate_avatar(trained.avatar, data, split, max_images, progress,
-                         [&trained](const torch::Tensor& given) { return trained.bones_for(given); });
+  const auto& character = data.character();
+  const double size = character_size(character.mesh.vertices, "avatar eval: canonical vertices");
+  auto scores = evaluate_avatar(trained.avatar, data, split, max_images, progress,
+                         [&](const ImageSplit& images, int64_t i) {
+                           const auto bones = trained.bones_for(images.bone_transforms[i]);
+                           return fit_pose_to_image(trained.avatar, images, i, bones, data.background(),
+                                                    character.skeleton, size, fitting);
+                         });
+  scores.pose_fitting_steps = fitting.steps;
+  return scores;
 }
 
 }  // namespace fskin

@@ -16,6 +16,7 @@
 #include "fskin/core/error.h"
 #include "fskin/radiance/avatar_character.h"
 #include "fskin/radiance/avatar_config.h"
+#include "fskin/radiance/image_rays.h"
 #include "fskin/engine/checkpoint.h"
 #include "fskin/engine/run_directory.h"
 #include "fskin/engine/run_lock.h"
@@ -141,7 +142,6 @@ class AvatarTrainable : public Trainable {
       avatar_->update_canonical_occupancy();
       ++occupancy_version_;
     }
-    const int64_t H = split_.images.size(1), W = split_.images.size(2);
     const auto images = torch::randint(split_.size(), {image_count}, torch::kInt64);
     std::vector<torch::Tensor> colors, opacities, targets, masks;
     std::vector<int64_t> refined_frames;
@@ -153,23 +153,8 @@ class AvatarTrainable : public Trainable {
       torch::manual_seed(step_seed(seed, k));
       const int64_t i = images[k].item<int64_t>();
       const int64_t n = options_.rays_per_step / image_count + (k < options_.rays_per_step % image_count);
-      const int64_t in_box = static_cast<int64_t>(std::llround(options_.mask_box_fraction * n));
-      const auto& b = boxes_[i];
-      const auto u = torch::cat({torch::randint(b[0], b[2], {in_box}, torch::kInt64),
-                                 torch::randint(0, W, {n - in_box}, torch::kInt64)});
-      const auto v = torch::cat({torch::randint(b[1], b[3], {in_box}, torch::kInt64),
-                                 torch::randint(0, H, {n - in_box}, torch::kInt64)});
-      const auto flat = v * W + u;
-      const auto rgb = split_.images[i].reshape({-1, 3}).index_select(0, flat).to(torch::kFloat32) / 255;
-      const auto mask = split_.masks[i].reshape({-1}).index_select(0, flat).to(torch::kFloat32) / 255;
-      torch::Tensor background;
-      if (options_.background == "random") background = torch::rand({n, 3});
-      else if (options_.background == "white") background = torch::ones({n, 3});
-      else if (options_.background == "black") background = torch::zeros({n, 3});
-      else background = dataset_background_.expand({n, 3});
-      // The image is the subject over the dataset's background: re-composite it over this one.
-      const auto target = rgb + (1 - mask).unsqueeze(1) * (background - dataset_background_);
-      const auto [origins, directions] = camera_rays(split_.cameras[i], torch::stack({u, v}, 1).to(torch::kFloat32));
+      const auto rays = sample_image_rays(split_, i, boxes_[i], n, options_.mask_box_fraction, options_.background,
+                                          dataset_background_);
       PosedFrame frame = frame_of(i);
       if (corrections_) {
         // The cached frame's grids came from the corrections of its last
@@ -177,23 +162,23 @@ class AvatarTrainable : public Trainable {
         frame.bones = corrections_->apply(frame_[i], skeleton_, size_);
         refined_frames.push_back(frame_[i]);
       }
-      const auto rendered = avatar_->render_rays(frame, origins, directions, background, /*jitter=*/true);
+      const auto rendered = avatar_->render_rays(frame, rays.origins, rays.directions, rays.background,
+                                                 /*jitter=*/true);
       colors.push_back(rendered.color);
       opacities.push_back(rendered.opacity);
-      targets.push_back(target);
-      masks.push_back(mask);
+      targets.push_back(rays.target);
+      masks.push_back(rays.mask);
       samples += rendered.samples;
     }
     const auto color = torch::cat(colors), opacity = torch::cat(opacities);
     const auto target = torch::cat(targets), mask = torch::cat(masks);
     // eq. 20 (Huber on colour) + eq. 21 (L1 on opacity against the mask),
     // means over this rank's rays (an equal share of the step's).
-    const auto colour_loss = torch::huber_loss(color, target, at::Reduction::Mean, options_.huber_delta);
-    const auto opacity_loss = options_.opacity_weight * (opacity - mask).abs().mean();
+    const auto loss = avatar_ray_loss(color, opacity, target, mask, options_.huber_delta, options_.opacity_weight);
     const auto mse = (color.detach() - target).pow(2).mean().to(torch::kFloat64);
     StepLosses out;
-    out.total = colour_loss + opacity_loss;
-    out.terms = {{"colour", colour_loss.detach()}, {"opacity", opacity_loss.detach()}};
+    out.total = loss.total();
+    out.terms = {{"colour", loss.colour.detach()}, {"opacity", loss.opacity.detach()}};
     if (corrections_) {
       const auto pose_loss = options_.pose_regularizer * corrections_->squared_size(refined_frames);
       out.total = out.total + pose_loss;

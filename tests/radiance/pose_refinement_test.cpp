@@ -9,7 +9,9 @@
 #include "fskin/io/npz.h"
 #include "fskin/radiance/avatar_evaluation.h"
 #include "fskin/radiance/avatar_training.h"
+#include "fskin/radiance/image_metrics.h"
 #include "fskin/radiance/pose_correction.h"
+#include "fskin/radiance/pose_fitting.h"
 #include "fskin/radiance/pose_perturbation.h"
 #include "fskin/radiance/refined_poses.h"
 #include "fskin/skeleton/rotations.h"
@@ -255,6 +257,51 @@ TEST(PoseRefinement, TrainsSavesResumesAndReportsTheRefinedPoses) {
   const auto novel_pose = ImageDataset(options.data_dir).load_split("novel_pose");
   EXPECT_TRUE(torch::equal(trained.bones_for(novel_pose.bone_transforms[0]), novel_pose.bone_transforms[0]));
   EXPECT_EQ(evaluate_avatar_run(options.out_dir, "", "novel_view", 0, false).frames.size(), 2u);
+}
+
+TEST(PoseFitting, FitsANoisyPoseToItsImageWithTheAvatarFrozen) {
+  auto options = testing::tiny_training("pose_fitting", 150, 1024);
+  options.images_per_step = 2;
+  options.occupancy_every = 25;
+  options.occupancy_warmup = 50;
+  options.decay_fraction = 0;
+  train_avatar(options);
+  auto trained = TrainedAvatar::load(options.out_dir);
+  const ImageDataset data(options.data_dir);
+  const auto split = data.load_split("train");
+  const auto& skeleton = data.character().skeleton;
+  const double size = character_size(data.character().mesh.vertices);
+  const int64_t J = skeleton.num_joints();
+  const auto exact = split.bone_transforms[0];
+  torch::manual_seed(3);
+  const auto axes = torch::randn({J, 3});
+  const auto noise = axes / axes.norm(2, 1, true) * static_cast<float>(5 * M_PI / 180);
+  const auto noisy = corrected_bone_transforms(exact, noise, torch::tensor({0.01f, 0.0f, 0.0f}), skeleton, size);
+  const auto table = trained.avatar->field()->table().clone();
+
+  PoseFittingOptions fitting;
+  EXPECT_TRUE(torch::equal(fit_pose_to_image(trained.avatar, split, 0, noisy, data.background(), skeleton, size, fitting),
+                           noisy));  // 0 steps: as given
+  fitting.steps = 100;
+  const auto fitted = fit_pose_to_image(trained.avatar, split, 0, noisy, data.background(), skeleton, size, fitting);
+  const auto before = pose_error(noisy.unsqueeze(0), exact.unsqueeze(0), skeleton, size);
+  const auto after = pose_error(fitted.unsqueeze(0), exact.unsqueeze(0), skeleton, size);
+  EXPECT_LT(after.joint_distance, 0.8 * before.joint_distance) << before.joint_distance << " -> " << after.joint_distance;
+  // The fitted pose renders its image better than the noisy one.
+  const auto psnr_with = [&](const torch::Tensor& bones) {
+    const auto frame = trained.avatar->pose(bones);
+    const auto image = trained.avatar->render_image(frame, split.cameras[0], data.background()).first;
+    return psnr(image, split.images[0].to(torch::kFloat32) / 255);
+  };
+  EXPECT_GT(psnr_with(fitted), psnr_with(noisy) + 0.5) << psnr_with(noisy) << " -> " << psnr_with(fitted) << " (exact "
+                                                         << psnr_with(exact) << ")";
+  // The avatar is unchanged and trainable again.
+  EXPECT_TRUE(torch::equal(trained.avatar->field()->table(), table));
+  EXPECT_TRUE(trained.avatar->field()->table().requires_grad());
+  // Through the evaluation, recorded in its JSON.
+  const auto scores = evaluate_avatar_run(options.out_dir, "", "novel_pose", 1, false, {2});
+  EXPECT_EQ(scores.pose_fitting_steps, 2);
+  EXPECT_NE(scores.to_json().find("\"pose_fitting_steps\": 2"), std::string::npos);
 }
 
 TEST(PoseRefinement, ARunWithoutRefinementHasNoRefinedPoses) {

@@ -7,6 +7,7 @@
 
 #include "fskin/radiance/avatar.h"
 #include "fskin/radiance/avatar_training.h"
+#include "fskin/radiance/pose_fitting.h"
 
 namespace fskin {
 
@@ -22,13 +23,14 @@ struct AvatarEvaluation {
   std::string split;
   std::vector<AvatarFrameScore> frames;
   double mean_psnr = 0, mean_ssim = 0, mean_psnr_subject_box = 0, median_render_seconds = 0;
+  int64_t pose_fitting_steps = 0;  // test-time pose optimisation per image (pose_fitting.h); 0: none
   std::string to_json() const;  // with every frame
   std::string to_table() const;
 };
 
-// The bones an image is rendered with, from the bones its split gives
-// (TrainedAvatar::bones_for: refined poses); empty: as given.
-using BonesOf = std::function<torch::Tensor(const torch::Tensor&)>;
+// The bones image `image` of a split is rendered with (refined or fitted
+// poses); empty: the split's own.
+using BonesOf = std::function<torch::Tensor(const ImageSplit& split, int64_t image)>;
 
 // Renders every image of `split` (at most max_images, evenly spread; 0 = all)
 // on the dataset's background and scores it over the whole image (as the
@@ -39,8 +41,10 @@ AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const
 // evaluate_avatar for a run directory: its avatar on `data_dir` (empty: the
 // dataset it was trained on), the training poses' images with the run's
 // refined bones when it refines poses (novel views of training poses, as the
-// papers evaluate refined captures).
+// papers evaluate refined captures), and with fitting.steps > 0 every
+// image's pose fitted to it first (pose_fitting.h: test-time optimisation).
 AvatarEvaluation evaluate_avatar_run(const std::string& run_dir, const std::string& data_dir,
-                                     const std::string& split, int64_t max_images = 0, bool progress = true);
+                                     const std::string& split, int64_t max_images = 0, bool progress = true,
+                                     const PoseFittingOptions& fitting = {});
 
 }  // namespace fskin

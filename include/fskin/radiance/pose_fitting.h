@@ -1,0 +1,35 @@
+#pragma once
+// Test-time pose optimisation: the pose of one image corrected
+// (radiance/pose_correction.h) to fit that image with the avatar frozen, as
+// avatar papers evaluate on captures whose held-out poses are fitted, and so
+// noisy (InstantAvatar, NeuMan). The image being scored is the one fitted:
+// scores with fitting measure the avatar given the best pose for each image
+// and are not comparable with scores without it.
+#include <torch/torch.h>
+
+#include <array>
+#include <cstdint>
+
+#include "fskin/radiance/avatar.h"
+#include "fskin/skeleton/skeleton.h"
+
+namespace fskin {
+
+struct PoseFittingOptions {
+  int64_t steps = 0;         // Adam steps per image; 0: no fitting
+  int64_t rays = 2048;       // rays per step, 90 % inside the image's mask box
+  double learning_rate = 1e-2;
+  double regularizer = 1e-3;  // x the correction's squared size, as in training
+  double huber_delta = 0.1, opacity_weight = 0.1;  // the training loss (avatar_training.h)
+  uint64_t seed = 0;
+  void validate() const;
+};
+
+// The corrected bones [J, 4, 4] of image `image` of `split`, starting from
+// `bones`; the avatar is not changed. skeleton / size: the character's
+// (corrections apply down its tree; size: geometry/character_size.h).
+torch::Tensor fit_pose_to_image(Avatar& avatar, const ImageSplit& split, int64_t image, const torch::Tensor& bones,
+                                const std::array<double, 3>& dataset_background, const Skeleton& skeleton, double size,
+                                const PoseFittingOptions& options);
+
+}  // namespace fskin

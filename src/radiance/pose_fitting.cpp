@@ -1,0 +1,62 @@
+#include "fskin/radiance/pose_fitting.h"
+
+#include <cmath>
+
+#include "fskin/core/error.h"
+#include "fskin/radiance/image_rays.h"
+#include "fskin/radiance/pose_correction.h"
+
+namespace fskin {
+
+void PoseFittingOptions::validate() const {
+  FSKIN_CHECK(steps >= 0 && rays >= 1, "pose fitting: steps must be >= 0 and rays >= 1, got {} and {}", steps, rays);
+  FSKIN_CHECK(learning_rate > 0 && learning_rate <= 1, "pose fitting: the learning rate {} must be in (0, 1]",
+              learning_rate);
+  FSKIN_CHECK(std::isfinite(regularizer) && regularizer >= 0, "pose fitting: the regulariser must be >= 0, got {}",
+              regularizer);
+}
+
+torch::Tensor fit_pose_to_image(Avatar& avatar, const ImageSplit& split, int64_t image, const torch::Tensor& bones,
+                                const std::array<double, 3>& dataset_background, const Skeleton& skeleton, double size,
+                                const PoseFittingOptions& options) {
+  options.validate();
+  const auto given = bones.detach().to(torch::kCPU, torch::kFloat32).contiguous();
+  if (options.steps == 0) return given;
+  // The frozen avatar: only the correction learns (restored on every exit).
+  struct Freeze {
+    std::vector<torch::Tensor> parameters;
+    std::vector<bool> required;
+    explicit Freeze(std::vector<torch::Tensor> p) : parameters(std::move(p)) {
+      for (auto& t : parameters) {
+        required.push_back(t.requires_grad());
+        t.requires_grad_(false);
+      }
+    }
+    ~Freeze() {
+      for (size_t k = 0; k < parameters.size(); ++k) parameters[k].requires_grad_(required[k]);
+    }
+  } freeze(avatar->parameters());
+  PoseCorrections correction(given.unsqueeze(0));
+  torch::optim::Adam adam(correction->parameters(), torch::optim::AdamOptions(options.learning_rate));
+  const auto background = torch::tensor({dataset_background[0], dataset_background[1], dataset_background[2]},
+                                        torch::kFloat32);
+  const auto box = mask_box(split.masks[image], 0.2);
+  // The posed grids of the given pose (dilated by a cell) hold the small corrections' samples.
+  PosedFrame frame = avatar->pose(given);
+  for (int64_t step = 0; step < options.steps; ++step) {
+    torch::manual_seed(options.seed + static_cast<uint64_t>(step));
+    const auto rays = sample_image_rays(split, image, box, options.rays, 0.9, "dataset", background);
+    frame.bones = correction->apply(0, skeleton, size);
+    const auto rendered = avatar->render_rays(frame, rays.origins, rays.directions, rays.background, /*jitter=*/false);
+    const auto loss = avatar_ray_loss(rendered.color, rendered.opacity, rays.target, rays.mask, options.huber_delta,
+                                      options.opacity_weight)
+                          .total() +
+                      options.regularizer * correction->squared_size({0});
+    adam.zero_grad();
+    loss.backward();
+    adam.step();
+  }
+  return correction->corrected(skeleton, size)[0];
+}
+
+}  // namespace fskin
