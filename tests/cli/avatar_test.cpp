@@ -76,6 +76,41 @@ TEST_F(AvatarCommands, EvalWritesPsnrPerSplit) {
   EXPECT_GT(json.at("mean_psnr").get<double>(), 5.0);
 }
 
+TEST_F(AvatarCommands, NoisyPosesAreRefinedReportedAndFitted) {
+  ASSERT_EQ(run_cli("data perturb-poses --data " + path("images") + " --out " + path("noisy") + " --degrees 4"), 0)
+      << log();
+  EXPECT_NE(log().find("2 poses perturbed: 4.00 degrees per joint"), std::string::npos) << log();
+  EXPECT_NE(run_cli("data perturb-poses --data " + path("images") + " --out " + path("noisy")), 0);
+  EXPECT_NE(log().find("not empty"), std::string::npos) << log();
+  ASSERT_EQ(run_cli("avatar train --data " + path("noisy") + " --out " + path("refined") +
+                    " --steps 4 --rays 128 --levels 4 --log2-table-size 12 --refine-poses --shading lambert --quiet"),
+            0)
+      << log();
+  const auto recorded = nlohmann::json::parse(read_file(path("refined/avatar.json")));
+  EXPECT_EQ(recorded.at("pose_refinement").at("enabled"), true);
+  EXPECT_EQ(recorded.at("model").at("field").at("shading"), "lambert");
+  ASSERT_EQ(run_cli("avatar poses " + path("refined") + " --out " + path("refined.npz")), 0) << log();
+  EXPECT_NE(log().find("against the exact poses: given 4.00 degrees"), std::string::npos) << log();
+  EXPECT_TRUE(io::NpzReader(path("refined.npz")).contains("bone_transforms_exact"));
+  EXPECT_NE(run_cli("avatar poses " + path("run")), 0);
+  EXPECT_NE(log().find("does not refine poses"), std::string::npos) << log();
+  ASSERT_EQ(run_cli("avatar eval " + path("refined") + " --split novel_pose --fit-poses 2 --quiet"), 0) << log();
+  EXPECT_EQ(nlohmann::json::parse(read_file(path("refined/eval_novel_pose.json"))).at("pose_fitting_steps"), 2);
+}
+
+TEST_F(AvatarCommands, ALightShadesTheImages) {
+  ASSERT_EQ(run_cli("data images --model " + path("model.npz") + " --poses " + path("poses.npz") + " --out " +
+                    path("lit") + " --size 16 --views 1 --held-out-views 1 --novel-view-frames 0 --supersampling 1 "
+                    "--light 0,1,0 --ambient 0.4 --quiet"),
+            0)
+      << log();
+  const auto manifest = nlohmann::json::parse(read_file(path("lit/manifest.json")));
+  EXPECT_EQ(manifest.at("light"), nlohmann::json({0.0, 1.0, 0.0}));
+  EXPECT_NE(run_cli("data images --model " + path("model.npz") + " --poses " + path("poses.npz") + " --out " +
+                    path("lit2") + " --light 0,1"),
+            0);
+}
+
 TEST_F(AvatarCommands, RenderComparesWithTheGroundTruth) {
   ASSERT_EQ(run_cli("avatar render " + path("run") + " --split train --index 0,3 --compare --out " + path("cmp.png")),
             0)
