@@ -137,7 +137,10 @@ class AvatarTrainable : public Trainable {
                 "avatar train: with {} ranks, images per step ({}) must be a multiple of the number of ranks and rays "
                 "per step ({}) a multiple of images per step",
                 shard.count, image_count, options_.rays_per_step);
-    if (corrections_) corrections_->forget_gradients();
+    if (corrections_) {
+      corrections_->forget_gradients();
+      corrections_->center();
+    }
     if (step >= options_.occupancy_warmup && step % options_.occupancy_every == 0) {
       avatar_->update_canonical_occupancy();
       ++occupancy_version_;

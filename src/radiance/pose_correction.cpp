@@ -91,6 +91,14 @@ void PoseCorrectionsImpl::forget_gradients() {
   for (auto& p : translations_) p.mutable_grad() = torch::Tensor();
 }
 
+void PoseCorrectionsImpl::center() {
+  if (frames() == 0) return;
+  torch::NoGradGuard no_grad;
+  const auto mean_rotation = rotations().mean(0), mean_translation = translations().mean(0);
+  for (auto& p : rotations_) p.sub_(mean_rotation);
+  for (auto& p : translations_) p.sub_(mean_translation);
+}
+
 torch::Tensor PoseCorrectionsImpl::rotations() const {
   const int64_t J = given_.size(1);
   return rotations_.empty() ? torch::zeros({0, J, 3}) : torch::stack(rotations_).detach();

@@ -54,27 +54,45 @@ PosePerturbationSummary perturb_image_dataset_poses(const PosePerturbationOption
   const int64_t J = character.num_joints();
   const double size = character_size(character.mesh.vertices, "data perturb-poses: canonical vertices");
   auto generator = at::make_generator<at::CPUGeneratorImpl>(options.seed);
-  // One noise per distinct pose, shared across the perturbed splits.
+  // One noise per distinct pose of the perturbed splits (the novel views of a
+  // training pose share its noise), drawn in the order the poses first appear.
   std::vector<torch::Tensor> exact_poses;
-  std::vector<std::pair<torch::Tensor, torch::Tensor>> noises;
-  const auto noise_of = [&](const torch::Tensor& bones) -> const std::pair<torch::Tensor, torch::Tensor>& {
-    for (size_t f = 0; f < exact_poses.size(); ++f) {
-      if (torch::equal(exact_poses[f], bones)) return noises[f];
+  std::vector<std::string> splits_present;
+  const auto splits = data.split_names();
+  for (const char* split : kPerturbedSplits) {
+    if (std::find(splits.begin(), splits.end(), split) == splits.end()) continue;
+    splits_present.push_back(split);
+    const auto bones = load_bone_transforms((out / split / "poses.npz").string(), J);
+    for (int64_t i = 0; i < bones.size(0); ++i) {
+      bool seen = false;
+      for (const auto& pose : exact_poses) seen = seen || torch::equal(pose, bones[i]);
+      if (!seen) exact_poses.push_back(bones[i]);
     }
-    const auto axes = at::randn({J, 3}, generator, c10::kDouble);
-    const auto shift = at::randn({3}, generator, c10::kDouble);
-    const auto unit = [](const torch::Tensor& v) { return v / v.norm(2, -1, true).clamp_min(1e-12); };
-    exact_poses.push_back(bones);
-    noises.emplace_back((unit(axes) * (options.degrees * M_PI / 180.0)).to(torch::kFloat32),
-                        (unit(shift) * options.translation).to(torch::kFloat32));
-    return noises.back();
+  }
+  FSKIN_CHECK(!exact_poses.empty(), "{}: no train or novel_view poses to perturb", options.data_dir);
+  const auto F = static_cast<int64_t>(exact_poses.size());
+  const auto unit = [](const torch::Tensor& v) { return v / v.norm(2, -1, true).clamp_min(1e-12); };
+  auto rotations = unit(at::randn({F, J, 3}, generator, c10::kDouble)) * (options.degrees * M_PI / 180.0);
+  auto shifts = unit(at::randn({F, 3}, generator, c10::kDouble)) * options.translation;
+  // Zero-mean over the poses (an unbiased pose source): a common part would
+  // move the whole set into another frame, which no refinement can tell from
+  // the canonical shape (PoseCorrectionsImpl::center).
+  if (F > 1) {
+    rotations = rotations - rotations.mean(0, true);
+    shifts = shifts - shifts.mean(0, true);
+  }
+  rotations = rotations.to(torch::kFloat32);
+  shifts = shifts.to(torch::kFloat32);
+  // Every pose of the splits is among exact_poses (collected above).
+  const auto noise_of = [&](const torch::Tensor& bones) {
+    int64_t f = 0;
+    while (f + 1 < F && !torch::equal(exact_poses[f], bones)) ++f;
+    return f;
   };
 
   PosePerturbationSummary summary;
   std::vector<torch::Tensor> all_perturbed, all_exact;
-  const auto splits = data.split_names();
-  for (const char* split : kPerturbedSplits) {
-    if (std::find(splits.begin(), splits.end(), split) == splits.end()) continue;
+  for (const auto& split : splits_present) {
     const auto path = (out / split / "poses.npz").string();
     const auto exact = load_bone_transforms(path, J);
     const io::NpzReader reader(path);
@@ -82,8 +100,8 @@ PosePerturbationSummary perturb_image_dataset_poses(const PosePerturbationOption
                 "{}: already perturbed (it has bone_transforms_exact); perturb the original dataset", path);
     auto perturbed = exact.clone();
     for (int64_t i = 0; i < exact.size(0); ++i) {
-      const auto& [rotations, shift] = noise_of(exact[i]);
-      perturbed[i].copy_(corrected_bone_transforms(exact[i], rotations, shift, skeleton, size));
+      const int64_t f = noise_of(exact[i]);
+      perturbed[i].copy_(corrected_bone_transforms(exact[i], rotations[f], shifts[f], skeleton, size));
     }
     io::NpzWriter writer;
     for (const auto& key : reader.keys()) {
@@ -95,8 +113,7 @@ PosePerturbationSummary perturb_image_dataset_poses(const PosePerturbationOption
     all_perturbed.push_back(perturbed);
     all_exact.push_back(exact);
   }
-  FSKIN_CHECK(!all_exact.empty(), "{}: no train or novel_view split to perturb", options.data_dir);
-  summary.frames = static_cast<int64_t>(exact_poses.size());
+  summary.frames = F;
   const auto error = pose_error(torch::cat(all_perturbed), torch::cat(all_exact), skeleton, size);
   summary.rotation_degrees = error.rotation_degrees;
   summary.joint_distance = error.joint_distance;

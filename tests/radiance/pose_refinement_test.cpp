@@ -155,6 +155,24 @@ TEST(PoseCorrection, AStepMovesOnlyTheFramesItRenders) {
   EXPECT_GT(corrections->rotations()[0].abs().sum().item<double>(), 0);
 }
 
+TEST(PoseCorrection, CenteringRemovesTheCorrectionAllFramesShare) {
+  const auto s = chain();
+  const auto bones = chain_bones(torch::zeros({3, 3}), s);
+  PoseCorrections corrections(torch::stack({bones, bones, bones}));
+  {
+    torch::NoGradGuard no_grad;
+    auto parameters = corrections->parameters();
+    for (auto& p : parameters) p.copy_(torch::randn(p.sizes()) + 1);  // a shared offset of 1 plus noise
+  }
+  const auto before = corrections->rotations();
+  corrections->center();
+  EXPECT_LT(corrections->rotations().mean(0).abs().max().item<double>(), 1e-6);
+  EXPECT_LT(corrections->translations().mean(0).abs().max().item<double>(), 1e-6);
+  // The frames' differences stay.
+  EXPECT_TRUE(torch::allclose(corrections->rotations()[0] - corrections->rotations()[1], before[0] - before[1], 1e-5,
+                              1e-6));
+}
+
 // The tiny dataset with 5-degree, 1 % noise, made once per process.
 const std::string& perturbed_tiny_dataset() {
   static const std::string dir = [] {
@@ -177,8 +195,10 @@ TEST(PosePerturbation, PerturbsTrainingPosesOnceAndKeepsTheExactOnes) {
     const auto truth = exact.load_split(split).bone_transforms;
     EXPECT_TRUE(torch::equal(io::NpzReader(path).tensor("bone_transforms_exact"), truth)) << split;
     const auto error = pose_error(given, truth, s, size);
-    EXPECT_NEAR(error.rotation_degrees, 5.0, 0.05) << split;
-    EXPECT_GT(error.joint_distance, 0.005) << split;
+    // 5 degrees per joint before the mean over the 3 poses is removed.
+    EXPECT_GT(error.rotation_degrees, 2.0) << split;
+    EXPECT_LT(error.rotation_degrees, 5.5) << split;
+    EXPECT_GT(error.joint_distance, 0.003) << split;
   }
   // One noise per pose: the novel views of a training pose carry the same bones.
   const auto train = noisy.load_split("train"), novel_view = noisy.load_split("novel_view");
@@ -233,7 +253,7 @@ TEST(PoseRefinement, TrainsSavesResumesAndReportsTheRefinedPoses) {
   ASSERT_EQ(first.given.size(0), 3);  // 3 training poses, 2 views each
   EXPECT_GT(first.mean_rotation_degrees, 0);
   ASSERT_TRUE(first.exact.defined());
-  EXPECT_NEAR(first.given_error.rotation_degrees, 5.0, 0.05);
+  EXPECT_GT(first.given_error.rotation_degrees, 2.0);
   EXPECT_GT(first.refined_error.rotation_degrees, 0);
   // The log carries the regulariser; resuming continues the corrections.
   auto more = options;

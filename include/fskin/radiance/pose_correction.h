@@ -54,6 +54,15 @@ class PoseCorrectionsImpl : public torch::nn::Module {
   // them (with zero gradients its moments would keep moving every frame
   // after each of its rare steps).
   void forget_gradients();
+  // Subtracts the mean correction over the frames (per joint, and the root
+  // shift's) from every frame, in place. Training calls it before every
+  // step: a correction shared by all frames is indistinguishable from a
+  // change of the canonical shape (a gauge freedom), and left free it drifts
+  // the avatar away from the rig the given poses, and so new poses from the
+  // same source, are expressed in. Zero-mean corrections keep the avatar in
+  // the given poses' frame; zero-mean noise is then learned, a pose source's
+  // common bias is not (it is the rig's, and new poses carry it too).
+  void center();
   const torch::Tensor& given_bones() const { return given_; }  // [F, J, 4, 4]
   torch::Tensor rotations() const;                              // [F, J, 3], detached
   torch::Tensor translations() const;                           // [F, 3], detached

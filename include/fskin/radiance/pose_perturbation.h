@@ -2,7 +2,9 @@
 // A copy of an image dataset whose poses carry the noise of a fitted capture:
 // every training pose gets a rotation of `degrees` about a random axis at each
 // joint and a root shift of `translation` x the character's size in a random
-// direction (radiance/pose_correction.h applies them down the tree). The
+// direction (radiance/pose_correction.h applies them down the tree), then the
+// mean of each over the poses is subtracted (an unbiased pose source; each
+// pose's noise is then about, not exactly, `degrees`). The
 // images stay as rendered, so the recorded poses no longer explain them, as
 // with a pose estimator's fits; pose refinement (avatar_training.h) is
 // measured on such a copy against the exact poses, which each perturbed
