@@ -57,12 +57,12 @@ PosePerturbationSummary perturb_image_dataset_poses(const PosePerturbationOption
   // One noise per distinct pose of the perturbed splits (the novel views of a
   // training pose share its noise), drawn in the order the poses first appear.
   std::vector<torch::Tensor> exact_poses;
-  std::vector<std::string> splits_present;
+  std::vector<std::pair<std::string, torch::Tensor>> split_poses;  // each perturbed split's exact bones
   const auto splits = data.split_names();
   for (const char* split : kPerturbedSplits) {
     if (std::find(splits.begin(), splits.end(), split) == splits.end()) continue;
-    splits_present.push_back(split);
     const auto bones = load_bone_transforms((out / split / "poses.npz").string(), J);
+    split_poses.emplace_back(split, bones);
     for (int64_t i = 0; i < bones.size(0); ++i) {
       bool seen = false;
       for (const auto& pose : exact_poses) seen = seen || torch::equal(pose, bones[i]);
@@ -92,9 +92,8 @@ PosePerturbationSummary perturb_image_dataset_poses(const PosePerturbationOption
 
   PosePerturbationSummary summary;
   std::vector<torch::Tensor> all_perturbed, all_exact;
-  for (const auto& split : splits_present) {
+  for (const auto& [split, exact] : split_poses) {
     const auto path = (out / split / "poses.npz").string();
-    const auto exact = load_bone_transforms(path, J);
     const io::NpzReader reader(path);
     FSKIN_CHECK(!reader.contains("bone_transforms_exact"),
                 "{}: already perturbed (it has bone_transforms_exact); perturb the original dataset", path);

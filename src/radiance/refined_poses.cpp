@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -49,10 +50,10 @@ RefinedPoses refined_poses(const std::string& run_dir) {
     out.mean_root_shift = corrections.translations().norm(2, -1).mean().item<double>();
   }
   const auto pose_path = (std::filesystem::path(trained.options.data_dir) / "train" / "poses.npz").string();
-  if (std::filesystem::exists(pose_path) && io::NpzReader(pose_path).contains("bone_transforms_exact")) {
-    const io::NpzReader file(pose_path);
+  const auto file = std::filesystem::exists(pose_path) ? std::make_optional<io::NpzReader>(pose_path) : std::nullopt;
+  if (file && file->contains("bone_transforms_exact")) {
     const auto given = load_bone_transforms(pose_path, trained.skeleton.num_joints());
-    const auto exact = file.tensor("bone_transforms_exact").to(torch::kFloat32);
+    const auto exact = file->tensor("bone_transforms_exact").to(torch::kFloat32);
     FSKIN_CHECK(exact.sizes() == given.sizes(), "{}: bone_transforms_exact is {}, bone_transforms {}", pose_path,
                 shape_string(exact.sizes()), shape_string(given.sizes()));
     std::vector<torch::Tensor> rows;
