@@ -90,6 +90,10 @@ void register_avatar(CLI::App& app) {
                  "none: one colour per canonical point; lambert: that colour shaded by a learned distant light "
                  "through the posed surface (captures under fixed lights)")
       ->check(CLI::IsMember({"none", "lambert"}));
+  t->add_option("--appearance-codes", train->avatar.field.appearance_dim,
+                "length of a learned code per training frame that the colour is conditioned on (light that "
+                "changes from frame to frame; new poses get the codes' mean); 0: none")
+      ->check(CLI::NonNegativeNumber);
   t->add_flag("--refine-poses", train->refine_poses,
               "learn a correction of every training pose with the avatar (noisy captured poses; "
               "pose_refinement.* in the config)");
@@ -203,7 +207,14 @@ void register_avatar(CLI::App& app) {
     const ImageDataset data(render->data.empty() ? trained.options.data_dir : render->data);
     const auto split = data.load_split(render->split);
     const auto indices = parse_indices(render->index, split.size(), render->split);
-    auto bones = split.bone_transforms;
+    // The split's poses as the run learned them: a training frame's refined
+    // bones and appearance code (the mean appearance for other poses).
+    auto bones = split.bone_transforms.clone();
+    std::vector<torch::Tensor> appearance(static_cast<size_t>(split.size()));
+    for (const int64_t i : indices) {
+      bones[i] = trained.bones_for(split.bone_transforms[i]);
+      appearance[i] = trained.appearance_for(split.bone_transforms[i]);
+    }
     auto cameras = split.cameras;
     FSKIN_CHECK(render->poses.empty() || render->bones.empty(), "give --poses or --bones, not both");
     FSKIN_CHECK(!render->animation || !render->poses.empty() || !render->bones.empty(),
@@ -224,7 +235,10 @@ void register_avatar(CLI::App& app) {
       FSKIN_CHECK(given_bones.size(0) > 0, "{}: holds no poses", given_path);
       FSKIN_CHECK(render->pose_index < given_bones.size(0), "--pose-index {} is out of range: {} has {} poses",
                   render->pose_index, given_path, given_bones.size(0));
-      for (const int64_t i : indices) bones[i] = given_bones[render->pose_index];
+      for (const int64_t i : indices) {
+        bones[i] = given_bones[render->pose_index];
+        appearance[i] = torch::Tensor();
+      }
     }
     if (!render->cameras.empty()) {
       FSKIN_CHECK(!render->compare, "--compare needs the split's own cameras (there is no ground truth for --cameras)");
@@ -250,7 +264,8 @@ void register_avatar(CLI::App& app) {
     }
     if (render->turntable > 0) {
       const int64_t i = indices[0];
-      const auto frame = trained.avatar->pose(bones[i]);
+      auto frame = trained.avatar->pose(bones[i]);
+      frame.appearance = appearance[i];
       create_output_directory(render->out);
       // Turn the camera about the vertical axis through the posed box's centre.
       const auto& g = frame.grid;
@@ -270,7 +285,8 @@ void register_avatar(CLI::App& app) {
     for (size_t row = 0; row < indices.size(); ++row) {
       const int64_t i = indices[row];
       FSKIN_CHECK(cameras[i].width == W && cameras[i].height == H, "images of one sheet must have one size");
-      const auto frame = trained.avatar->pose(bones[i]);
+      auto frame = trained.avatar->pose(bones[i]);
+      frame.appearance = appearance[i];
       const auto rgb = trained.avatar->render_image(frame, cameras[i], data.background()).first;
       if (render->compare) sheet.paste(to_image(split.images[i].to(torch::kFloat32) / 255), 0, static_cast<int>(row) * H);
       sheet.paste(to_image(rgb), (columns - 1) * W, static_cast<int>(row) * H);

@@ -203,7 +203,7 @@ RayRender AvatarImpl::render_rays(const PosedFrame& frame, const torch::Tensor& 
       const auto R = frame.bones.narrow(1, 0, 3).narrow(2, 0, 3).to(device).reshape({-1, 9});
       rotations = torch::matmul(weights, R).reshape({-1, 3, 3});
     }
-    const auto sample = field_->forward(candidates, rotations);
+    const auto sample = field_->forward(candidates, rotations, frame.appearance);
     const auto sigma_all = torch::zeros({M * I}, sample.sigma.options()).index_put({valid}, sample.sigma).reshape({M, I});
     const auto rgb_all =
         torch::zeros({M * I, 3}, sample.rgb.options()).index_put({valid}, sample.rgb).reshape({M, I, 3});

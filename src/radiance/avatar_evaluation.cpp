@@ -46,7 +46,7 @@ std::string AvatarEvaluation::to_table() const {
 }
 
 AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const std::string& split_name,
-                                 int64_t max_images, bool progress, const BonesOf& bones_of) {
+                                 int64_t max_images, bool progress, const FrameInputsOf& inputs_of) {
   FSKIN_CHECK(max_images >= 0, "avatar eval: max images must be >= 0, got {}", max_images);
   const auto split = data.load_split(split_name);
   FSKIN_CHECK(split.size() > 0, "{}: split '{}' has no images", data.dir(), split_name);
@@ -58,9 +58,10 @@ AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const
   ProgressBar bar("avatar eval " + split_name, n, progress);
   std::vector<double> seconds;
   for (const int64_t i : chosen) {
-    const auto bones = bones_of ? bones_of(split, i) : split.bone_transforms[i];
+    const auto inputs = inputs_of ? inputs_of(split, i) : FrameInputs{split.bone_transforms[i], {}};
     const auto start = std::chrono::steady_clock::now();
-    const auto frame = avatar->pose(bones);
+    auto frame = avatar->pose(inputs.bones);
+    frame.appearance = inputs.appearance;
     const auto rendered = avatar->render_image(frame, split.cameras[i], data.background()).first;
     AvatarFrameScore score;
     score.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -97,9 +98,10 @@ AvatarEvaluation evaluate_avatar_run(const std::string& run_dir, const std::stri
   const double size = character_size(character.mesh.vertices, "avatar eval: canonical vertices");
   auto scores = evaluate_avatar(trained.avatar, data, split, max_images, progress,
                          [&](const ImageSplit& images, int64_t i) {
-                           const auto bones = trained.bones_for(images.bone_transforms[i]);
-                           return fit_pose_to_image(trained.avatar, images, i, bones, data.background(),
-                                                    character.skeleton, size, fitting);
+                           const auto& given = images.bone_transforms[i];
+                           const auto bones = fit_pose_to_image(trained.avatar, images, i, trained.bones_for(given),
+                                                                data.background(), character.skeleton, size, fitting);
+                           return FrameInputs{bones, trained.appearance_for(given)};
                          });
   scores.pose_fitting_steps = fitting.steps;
   return scores;

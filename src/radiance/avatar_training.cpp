@@ -60,6 +60,7 @@ namespace {
 
 constexpr const char* kAvatarArchiveKey = "avatar";
 constexpr const char* kPoseCorrectionsKey = "pose_corrections";  // inside the avatar's archive
+constexpr const char* kAppearanceCodesKey = "appearance_codes";  // inside the avatar's archive
 
 // Per image, its mask's box grown by 20 % of its size (ends exclusive).
 std::vector<std::array<int64_t, 4>> mask_boxes(const ImageSplit& split) {
@@ -90,20 +91,25 @@ class AvatarTrainable : public Trainable {
     for (int64_t i = 0; i < split.size(); ++i) {
       if (first[frame_[i]] < 0) first[frame_[i]] = i;
     }
-    if (options.refine_poses) {
-      corrections_ = PoseCorrections(split.bone_transforms.index_select(0, torch::tensor(first, torch::kInt64)));
-    }
+    const auto frame_bones = split.bone_transforms.index_select(0, torch::tensor(first, torch::kInt64));
+    if (options.refine_poses) corrections_ = PoseCorrections(frame_bones);
+    if (options.avatar.field.appearance_dim > 0)
+      appearance_ = AppearanceCodes(frame_bones, options.avatar.field.appearance_dim);
   }
 
   std::vector<OptimizerGroup> optimizer_groups() override {
     std::vector<OptimizerGroup> groups{{avatar_->parameters(), options_.learning_rate}};
     if (corrections_) groups.push_back({corrections_->parameters(), options_.pose_learning_rate});
+    if (appearance_) groups.push_back({appearance_->parameters(), options_.learning_rate});
     return groups;
   }
   std::vector<torch::Tensor> parameters() override {
     auto all = avatar_->parameters();
     if (corrections_) {
       for (const auto& p : corrections_->parameters()) all.push_back(p);
+    }
+    if (appearance_) {
+      for (const auto& p : appearance_->parameters()) all.push_back(p);
     }
     return all;
   }
@@ -115,6 +121,11 @@ class AvatarTrainable : public Trainable {
       corrections_->save(poses);
       model.write(kPoseCorrectionsKey, poses);
     }
+    if (appearance_) {
+      torch::serialize::OutputArchive codes;
+      appearance_->save(codes);
+      model.write(kAppearanceCodesKey, codes);
+    }
     archive.write(kAvatarArchiveKey, model);
   }
   void load(torch::serialize::InputArchive& archive) override {
@@ -125,6 +136,11 @@ class AvatarTrainable : public Trainable {
       torch::serialize::InputArchive poses;
       model.read(kPoseCorrectionsKey, poses);
       corrections_->load(poses);
+    }
+    if (appearance_) {
+      torch::serialize::InputArchive codes;
+      model.read(kAppearanceCodesKey, codes);
+      appearance_->load(codes);
     }
   }
   void to(const torch::Device& device) override {
@@ -140,6 +156,10 @@ class AvatarTrainable : public Trainable {
     if (corrections_) {
       corrections_->forget_gradients();
       corrections_->center();
+    }
+    if (appearance_) {
+      appearance_->forget_gradients();
+      appearance_->center();
     }
     if (step >= options_.occupancy_warmup && step % options_.occupancy_every == 0) {
       avatar_->update_canonical_occupancy();
@@ -165,6 +185,7 @@ class AvatarTrainable : public Trainable {
         frame.bones = corrections_->apply(frame_[i], skeleton_, size_);
         refined_frames.push_back(frame_[i]);
       }
+      if (appearance_) frame.appearance = appearance_->code(frame_[i]);
       const auto rendered = avatar_->render_rays(frame, rays.origins, rays.directions, rays.background,
                                                  /*jitter=*/true);
       colors.push_back(rendered.color);
@@ -220,6 +241,7 @@ class AvatarTrainable : public Trainable {
   Skeleton skeleton_;
   double size_;
   PoseCorrections corrections_{nullptr};  // with refine_poses
+  AppearanceCodes appearance_{nullptr};   // with appearance_dim > 0
   std::map<int64_t, std::pair<int64_t, PosedFrame>> frames_;  // frame -> (occupancy version, posed frame)
   int64_t occupancy_version_ = 0;
 };
@@ -306,6 +328,14 @@ TrainedAvatar TrainedAvatar::load(const std::string& run_dir) {
   out.step = load_model_checkpoint(run, CheckpointChoice{}, kAvatarArchiveKey,
                                    [&out, &run_dir](torch::serialize::InputArchive& archive) {
                                      out.avatar->load(archive);
+                                     if (out.options.avatar.field.appearance_dim > 0) {
+                                       torch::serialize::InputArchive codes;
+                                       FSKIN_CHECK(archive.try_read(kAppearanceCodesKey, codes),
+                                                   "{}: the run learns appearance codes but its checkpoint holds "
+                                                   "none",
+                                                   run_dir);
+                                       out.appearance = AppearanceCodes(AppearanceCodesImpl::read(codes));
+                                     }
                                      if (!out.options.refine_poses) return;
                                      torch::serialize::InputArchive poses;
                                      FSKIN_CHECK(archive.try_read(kPoseCorrectionsKey, poses),
@@ -324,9 +354,15 @@ torch::Tensor TrainedAvatar::bones_for(const torch::Tensor& given) const {
   return frame < 0 ? given : corrections->apply(frame, skeleton, size).detach();
 }
 
+torch::Tensor TrainedAvatar::appearance_for(const torch::Tensor& given) const {
+  return appearance ? appearance->code_for(given) : torch::Tensor();
+}
+
 std::pair<torch::Tensor, torch::Tensor> TrainedAvatar::render(const torch::Tensor& bones, const PinholeCamera& camera,
-                                                              const std::array<double, 3>& background) {
-  const auto frame = avatar->pose(bones.detach().to(torch::kCPU, torch::kFloat32));
+                                                              const std::array<double, 3>& background,
+                                                              const torch::Tensor& appearance_code) {
+  auto frame = avatar->pose(bones.detach().to(torch::kCPU, torch::kFloat32));
+  frame.appearance = appearance_code;
   return avatar->render_image(frame, camera, background);
 }
 

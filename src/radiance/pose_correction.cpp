@@ -72,13 +72,7 @@ torch::Tensor PoseCorrectionsImpl::corrected(const Skeleton& skeleton, double si
   return corrected_bone_transforms(given_, rotations(), translations(), skeleton, size);
 }
 
-int64_t PoseCorrectionsImpl::find(const torch::Tensor& bones) const {
-  const auto b = bones.to(torch::kFloat32);
-  for (int64_t f = 0; f < frames(); ++f) {
-    if (torch::equal(given_[f], b)) return f;
-  }
-  return -1;
-}
+int64_t PoseCorrectionsImpl::find(const torch::Tensor& bones) const { return find_frame(given_, bones); }
 
 torch::Tensor PoseCorrectionsImpl::squared_size(const std::vector<int64_t>& frames) const {
   auto total = torch::zeros({});
@@ -125,6 +119,14 @@ std::vector<int64_t> frames_of_images(const torch::Tensor& bone_transforms) {
     }
   }
   return frame;
+}
+
+int64_t find_frame(const torch::Tensor& frame_bones, const torch::Tensor& bones) {
+  const auto b = bones.to(frame_bones.scalar_type());
+  for (int64_t f = 0; f < frame_bones.size(0); ++f) {
+    if (torch::equal(frame_bones[f], b)) return f;
+  }
+  return -1;
 }
 
 PoseError pose_error(const torch::Tensor& bones, const torch::Tensor& reference, const Skeleton& skeleton,

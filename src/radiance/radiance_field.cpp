@@ -16,6 +16,10 @@ void RadianceFieldOptions::validate() const {
               hidden_layers);
   FSKIN_CHECK(shading == "none" || shading == "lambert", "radiance field: shading must be none or lambert, got '{}'",
               shading);
+  FSKIN_CHECK(appearance_dim >= 0 && appearance_dim <= 1024,
+              "radiance field: appearance_dim must be within 0..1024, got {}", appearance_dim);
+  FSKIN_CHECK(appearance_hidden_dim >= 1 && appearance_hidden_dim <= 4096,
+              "radiance field: appearance_hidden_dim must be within 1..4096, got {}", appearance_hidden_dim);
 }
 
 RadianceFieldImpl::RadianceFieldImpl(RadianceFieldOptions options, std::array<double, 3> lower,
@@ -33,6 +37,14 @@ RadianceFieldImpl::RadianceFieldImpl(RadianceFieldOptions options, std::array<do
   const int64_t outputs = options_.lambert() ? 7 : 4;  // sigma, albedo (, n)
   mlp_ = register_module("mlp", relu_mlp({options_.encoding.output_dim(), outputs, options_.hidden_dim,
                                           options_.hidden_layers}));
+  if (options_.appearance_dim > 0) {
+    appearance_mlp_ = register_module(
+        "appearance_mlp", relu_mlp({options_.encoding.output_dim() + options_.appearance_dim, 3,
+                                    options_.appearance_hidden_dim, 1}));
+    // The output layer (entry 2) at zero: training starts from the colour without codes.
+    torch::NoGradGuard no_grad;
+    for (auto& p : appearance_mlp_[2]->parameters()) p.zero_();
+  }
   if (options_.lambert()) {
     // A light from above-front, and a = softplus(0.5) ~ 0.97 so that the
     // first colours are about the albedo; the field learns both.
@@ -41,7 +53,8 @@ RadianceFieldImpl::RadianceFieldImpl(RadianceFieldOptions options, std::array<do
   }
 }
 
-RadianceSample RadianceFieldImpl::forward(const torch::Tensor& x, const torch::Tensor& rotations) {
+RadianceSample RadianceFieldImpl::forward(const torch::Tensor& x, const torch::Tensor& rotations,
+                                          const torch::Tensor& appearance) {
   expect_shape(x, {-1, 3}, "radiance field: points");
   const auto lower = torch::tensor({lower_[0], lower_[1], lower_[2]}, x.options());
   const auto upper = torch::tensor({upper_[0], upper_[1], upper_[2]}, x.options());
@@ -54,7 +67,15 @@ RadianceSample RadianceFieldImpl::forward(const torch::Tensor& x, const torch::T
   // useful gradient at any scale; sigma * step is then the same for a
   // character of any size. Clamped so that exp cannot overflow.
   const auto sigma = torch::exp(raw.select(1, 0).clamp(-15, 15)) / extent_ * inside.to(raw.scalar_type());
-  auto rgb = torch::sigmoid(raw.slice(1, 1, 4));
+  auto logits = raw.slice(1, 1, 4);
+  if (appearance_mlp_) {
+    const int64_t D = options_.appearance_dim;
+    torch::Tensor code = appearance.defined() ? appearance : torch::zeros({D});
+    expect_shape(code, {D}, "radiance field: appearance code");
+    code = code.to(features.options()).unsqueeze(0).expand({features.size(0), D});
+    logits = logits + appearance_mlp_->forward(torch::cat({features, code}, 1));
+  }
+  auto rgb = torch::sigmoid(logits);
   if (options_.lambert() && rotations.defined()) {
     expect_shape(rotations, {x.size(0), 3, 3}, "radiance field: rotations");
     const auto posed_normal = torch::matmul(rotations.to(raw.scalar_type()), raw.slice(1, 4, 7).unsqueeze(2)).squeeze(2);

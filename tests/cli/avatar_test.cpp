@@ -83,12 +83,14 @@ TEST_F(AvatarCommands, NoisyPosesAreRefinedReportedAndFitted) {
   EXPECT_NE(run_cli("data perturb-poses --data " + path("images") + " --out " + path("noisy")), 0);
   EXPECT_NE(log().find("not empty"), std::string::npos) << log();
   ASSERT_EQ(run_cli("avatar train --data " + path("noisy") + " --out " + path("refined") +
-                    " --steps 4 --rays 128 --levels 4 --log2-table-size 12 --refine-poses --shading lambert --quiet"),
+                    " --steps 4 --rays 128 --levels 4 --log2-table-size 12 --refine-poses --shading lambert"
+                    " --appearance-codes 4 --quiet"),
             0)
       << log();
   const auto recorded = nlohmann::json::parse(read_file(path("refined/avatar.json")));
   EXPECT_EQ(recorded.at("pose_refinement").at("enabled"), true);
   EXPECT_EQ(recorded.at("model").at("field").at("shading"), "lambert");
+  EXPECT_EQ(recorded.at("model").at("field").at("appearance").at("dim"), 4);
   ASSERT_EQ(run_cli("avatar poses " + path("refined") + " --out " + path("refined.npz")), 0) << log();
   EXPECT_NE(log().find("against the exact poses: given "), std::string::npos) << log();
   EXPECT_TRUE(io::NpzReader(path("refined.npz")).contains("bone_transforms_exact"));
@@ -96,6 +98,12 @@ TEST_F(AvatarCommands, NoisyPosesAreRefinedReportedAndFitted) {
   EXPECT_NE(log().find("does not refine poses"), std::string::npos) << log();
   ASSERT_EQ(run_cli("avatar eval " + path("refined") + " --split novel_pose --fit-poses 2 --quiet"), 0) << log();
   EXPECT_EQ(nlohmann::json::parse(read_file(path("refined/eval_novel_pose.json"))).at("pose_fitting_steps"), 2);
+  // Training poses' images with their frames' codes, other poses with the mean.
+  ASSERT_EQ(run_cli("avatar render " + path("refined") + " --split train --index 0 --compare --out " +
+                    path("coded.png")),
+            0)
+      << log();
+  EXPECT_TRUE(fs::exists(path("coded.png")));
 }
 
 TEST_F(AvatarCommands, ALightShadesTheImages) {

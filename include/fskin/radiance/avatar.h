@@ -42,6 +42,9 @@ struct PosedFrame {
   // lower == upper, no ray takes samples).
   std::array<double, 3> lower{0, 0, 0}, upper{0, 0, 0};
   double step = 0;      // distance between samples along a ray
+  // The frame's appearance code (radiance/appearance_codes.h) when the field
+  // has codes; undefined: the mean appearance.
+  torch::Tensor appearance;
 };
 
 struct RayRender {

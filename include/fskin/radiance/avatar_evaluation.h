@@ -28,20 +28,25 @@ struct AvatarEvaluation {
   std::string to_table() const;
 };
 
-// The bones image `image` of a split is rendered with (refined or fitted
-// poses); empty: the split's own.
-using BonesOf = std::function<torch::Tensor(const ImageSplit& split, int64_t image)>;
+// What image `image` of a split is rendered with: its bones (refined or
+// fitted poses) and its appearance code (undefined: the mean appearance).
+struct FrameInputs {
+  torch::Tensor bones, appearance;
+};
+// Empty: the split's own bones and the mean appearance.
+using FrameInputsOf = std::function<FrameInputs(const ImageSplit& split, int64_t image)>;
 
 // Renders every image of `split` (at most max_images, evenly spread; 0 = all)
 // on the dataset's background and scores it over the whole image (as the
 // avatar papers do) and over the subject's box.
 AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const std::string& split,
-                                 int64_t max_images = 0, bool progress = true, const BonesOf& bones_of = {});
+                                 int64_t max_images = 0, bool progress = true, const FrameInputsOf& inputs_of = {});
 
 // evaluate_avatar for a run directory: its avatar on `data_dir` (empty: the
 // dataset it was trained on), the training poses' images with the run's
 // refined bones when it refines poses (novel views of training poses, as the
-// papers evaluate refined captures), and with fitting.steps > 0 every
+// papers evaluate refined captures) and their frames' appearance codes when
+// it learns them (other poses: the mean appearance), and with fitting.steps > 0 every
 // image's pose fitted to it first (pose_fitting.h: test-time optimisation).
 AvatarEvaluation evaluate_avatar_run(const std::string& run_dir, const std::string& data_dir,
                                      const std::string& split, int64_t max_images = 0, bool progress = true,

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "fskin/radiance/avatar.h"
+#include "fskin/radiance/appearance_codes.h"
 #include "fskin/radiance/pose_correction.h"
 #include "fskin/engine/data_parallel.h"
 #include "fskin/engine/stop_signal.h"
@@ -74,9 +75,11 @@ struct TrainedAvatar {
   int64_t step = 0;
   static TrainedAvatar load(const std::string& run_dir);
   // The avatar in bones [J, 4, 4] (canonical -> posed) seen by `camera`:
-  // (rgb [H, W, 3] in [0, 1], opacity [H, W]), without gradients.
+  // (rgb [H, W, 3] in [0, 1], opacity [H, W]), without gradients, with the
+  // appearance code `appearance` (undefined: the mean appearance).
   std::pair<torch::Tensor, torch::Tensor> render(const torch::Tensor& bones, const PinholeCamera& camera,
-                                                 const std::array<double, 3>& background);
+                                                 const std::array<double, 3>& background,
+                                                 const torch::Tensor& appearance = {});
   // With pose refinement: the training frames' learned corrections, and the
   // character's skeleton and size they apply with; null without.
   PoseCorrections corrections{nullptr};
@@ -86,6 +89,11 @@ struct TrainedAvatar {
   // corrected bones where the image's bones are that frame's given ones (the
   // novel views of training poses), else its own.
   torch::Tensor bones_for(const torch::Tensor& given) const;
+  // With appearance codes: the training frames' codes; null without.
+  AppearanceCodes appearance{nullptr};
+  // The code an image with given bones is rendered with: its training
+  // frame's, else undefined (the mean appearance).
+  torch::Tensor appearance_for(const torch::Tensor& given) const;
 };
 
 }  // namespace fskin

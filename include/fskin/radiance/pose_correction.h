@@ -76,6 +76,8 @@ TORCH_MODULE(PoseCorrections);
 // Frames of a split: image i sees frame frame_of[i]; images with equal bone
 // transforms share a frame, numbered in the order of first appearance.
 std::vector<int64_t> frames_of_images(const torch::Tensor& bone_transforms);
+// The frame f whose bones frame_bones[f] equal `bones` [J, 4, 4] exactly, or -1.
+int64_t find_frame(const torch::Tensor& frame_bones, const torch::Tensor& bones);
 
 // How far bones [N, J, 4, 4] are from reference bones of the same frames:
 // the mean angle between the joints' rotations relative to their parents

@@ -15,6 +15,14 @@
 // diffuse surface under one distant light fixed in the world, whose shade
 // follows the posed surface as the body turns and bends, in poses never
 // seen as well (R comes from the pose, not from a per-frame code).
+//
+// Appearance codes (appearance_dim > 0; NeRF in the Wild's appearance
+// embeddings): a small ReLU MLP of the encoded point and a frame's code
+// (radiance/appearance_codes.h) adds to the colour's logits, so a frame's
+// light can brighten or darken any part of the body; density never sees the
+// code (the shape is the same in every frame). Its output layer starts at
+// zero: an untrained head leaves the colour as it is. Combined with
+// "lambert", the code changes the albedo before shading.
 #include <torch/torch.h>
 
 #include <array>
@@ -30,6 +38,8 @@ struct RadianceFieldOptions {
   int64_t hidden_dim = 64;
   int64_t hidden_layers = 2;
   std::string shading = "none";  // "none" or "lambert" (above)
+  int64_t appearance_dim = 0;     // length of the per-frame appearance code; 0: none (above)
+  int64_t appearance_hidden_dim = 32;
   void validate() const;
   bool lambert() const { return shading == "lambert"; }
 };
@@ -48,8 +58,10 @@ class RadianceFieldImpl : public torch::nn::Module {
   // x [N, 3] canonical -> density and colour (points outside the box have
   // zero density). rotations [N, 3, 3]: the samples' blended bone rotations
   // (canonical -> posed) for Lambert shading; undefined (or shading "none"):
-  // the colour is the albedo.
-  RadianceSample forward(const torch::Tensor& x, const torch::Tensor& rotations = {});
+  // the colour is the albedo. appearance [appearance_dim]: the frame's code;
+  // undefined: zero (the mean appearance).
+  RadianceSample forward(const torch::Tensor& x, const torch::Tensor& rotations = {},
+                         const torch::Tensor& appearance = {});
   torch::Tensor density(const torch::Tensor& x) { return forward(x).sigma; }
 
   const RadianceFieldOptions& options() const { return options_; }
@@ -64,6 +76,7 @@ class RadianceFieldImpl : public torch::nn::Module {
   double unit_ = 1;       // length unit (character size / 1.7 m): sigma is per metre at 1.7 m
   torch::Tensor table_;   // [L, 2^T, F]
   torch::nn::Sequential mlp_{nullptr};
+  torch::nn::Sequential appearance_mlp_{nullptr};  // appearance_dim > 0
   torch::Tensor light_, ambient_;  // "lambert": d [3] and a's pre-softplus value
 };
 TORCH_MODULE(RadianceField);
