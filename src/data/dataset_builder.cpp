@@ -48,22 +48,6 @@ torch::Tensor box_tensor(const Box& box) {
       .reshape({2, 3});
 }
 
-// sample_frame_points with `share` of the near-surface samples drawn on the
-// faces `thin` (area-uniform among them) and the rest area-uniform over the
-// whole surface.
-torch::Tensor sample_frame_points_thin(const Mesh& mesh, const SamplingOptions& options,
-                                       const torch::Tensor& thin, double share, Rng& rng) {
-  const auto uniform = sample_box(mesh_bounds(mesh, options.box_scale), options.uniform_points, rng);
-  const auto on_thin = static_cast<int64_t>(std::llround(share * static_cast<double>(options.surface_points)));
-  const Mesh thin_mesh{mesh.vertices, mesh.faces.index_select(0, thin), {}};
-  auto surface = torch::cat({sample_surface(mesh, options.surface_points - on_thin, rng),
-                             sample_surface(thin_mesh, on_thin, rng)});
-  float* sp = surface.data_ptr<float>();
-  for (int64_t k = 0; k < surface.numel(); ++k)
-    sp[k] += static_cast<float>(options.noise_sigma * rng.normal());
-  return torch::cat({uniform, surface}, 0);
-}
-
 }  // namespace
 
 void DatasetBuildOptions::validate() const {
@@ -244,7 +228,7 @@ DatasetBuildSummary build_dataset(const BodyModel& model, const PoseSet& poses,
     start = Clock::now();
     Rng rng = Rng::for_item(options.seed, f);
     frame.points = item.split == "train" && thin.size(0) > 0
-                       ? sample_frame_points_thin(mesh, sampling, thin, options.thin_surface_share, rng)
+                       ? sample_frame_points(mesh, sampling, rng, thin, options.thin_surface_share)
                        : sample_frame_points(mesh, sampling, rng);
     frame.num_uniform = sampling.uniform_points;
     frame.box = box_tensor(mesh_bounds(mesh, sampling.box_scale));

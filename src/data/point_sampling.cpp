@@ -108,9 +108,21 @@ torch::Tensor sample_box(const Box& box, int64_t count, Rng& rng) {
 }
 
 torch::Tensor sample_frame_points(const Mesh& mesh, const SamplingOptions& options, Rng& rng) {
+  return sample_frame_points(mesh, options, rng, torch::Tensor(), 0.0);
+}
+
+torch::Tensor sample_frame_points(const Mesh& mesh, const SamplingOptions& options, Rng& rng,
+                                  const torch::Tensor& emphasised_faces, double share) {
   options.validate();
+  FSKIN_CHECK(share >= 0 && share <= 1, "point sampling: the emphasised share must be in [0, 1], got {}", share);
   const auto uniform = sample_box(mesh_bounds(mesh, options.box_scale), options.uniform_points, rng);
-  auto surface = sample_surface(mesh, options.surface_points, rng);
+  const int64_t emphasised =
+      share > 0 ? static_cast<int64_t>(std::llround(share * static_cast<double>(options.surface_points))) : 0;
+  auto surface = sample_surface(mesh, options.surface_points - emphasised, rng);
+  if (emphasised > 0) {
+    const Mesh part{mesh.vertices, mesh.faces.index_select(0, emphasised_faces), {}};
+    surface = torch::cat({surface, sample_surface(part, emphasised, rng)});
+  }
   float* sp = surface.data_ptr<float>();
   for (int64_t k = 0; k < surface.numel(); ++k)
     sp[k] += static_cast<float>(options.noise_sigma * rng.normal());

@@ -156,6 +156,12 @@ const std::vector<ConfigKey> kKeys = {
     {"schedule.warmup.steps", "warmup_steps", [](const json& v) { return integer_in(v, 0, kNoMax); }},
     {"schedule.warmup.factor", "warmup_factor", [](const json& v) { return number_in(v, 0, 1, true); }},
     {"schedule.decay.fraction", "decay_fraction", [](const json& v) { return number_in(v, 0, 1); }},
+    {"schedule.decay.thin_part_fraction", "thin_part_decay_fraction",
+     [](const json& v) {
+       if (v.is_number() && v.get<double>() == -1) return std::string();
+       const auto problem = number_in(v, 0, 1);
+       return problem.empty() ? problem : "must be -1 (keep schedule.decay.fraction) or " + problem;
+     }},
     {"schedule.decay.factor", "decay_factor", [](const json& v) { return number_in(v, 0, 1, true); }},
 
     {"data.path", "data", text},

@@ -29,6 +29,7 @@ namespace fskin {
   X(occupancy_hash_base_resolution) X(occupancy_hash_finest_resolution) X(init_radius) X(skinning_hidden_dim) \
   X(skinning_hidden_layers) X(skinning_learning_rate_factor) X(canonical_sparsity_weight) \
   X(canonical_sparsity_points) X(grid_resolution) X(thin_part_grid_resolution) X(thin_part_fraction) \
+  X(thin_part_decay_fraction) \
   X(grid_padding) X(grid) X(part_hidden_dim) X(part_hidden_layers) X(start_bones) X(max_iterations) \
   X(snarf_roots) X(implicit_gradient) X(eval_chunk_points)
 
@@ -136,7 +137,8 @@ TrainConfig TrainConfig::load_run(const std::string& path) {
   // written without the key used.
   static const std::vector<std::pair<std::string, nlohmann::json>> kBeforeTheKeyExisted = {
       {"pin_space_output", "sine"}, {"pin_space_omega", 30.0}, {"pin_pose_frame", "global"}, {"pin_bone_dropout", 0.0},
-      {"grid_resolution", 0}, {"thin_part_grid_resolution", 0}, {"occupancy_hash_levels", 0}, {"bootstrap_bones", "all"}};
+      {"grid_resolution", 0}, {"thin_part_grid_resolution", 0}, {"thin_part_decay_fraction", -1.0},
+      {"occupancy_hash_levels", 0}, {"bootstrap_bones", "all"}};
   nlohmann::json saved = parse_object(read_file(path), path);
   // Run directories written before the nested layout hold flat documents.
   const bool flat = !(saved.contains("model") && saved["model"].is_object());

@@ -16,6 +16,8 @@
 #include "fskin/engine/run_directory.h"
 #include "fskin/util/atomic_file.h"
 
+#include <fmt/format.h>
+
 namespace fskin {
 namespace {
 
@@ -45,11 +47,20 @@ void fit_grid_to_thin_parts(TrainConfig& config, const Dataset& dataset) {
   auto thin = measure(config);
   if (config.grid_resolution > 0 && config.thin_part_grid_resolution > config.grid_resolution &&
       thin.thin_fraction > config.thin_part_fraction) {
+    std::string schedule;
+    if (model_options(config, skeleton).method == Method::FastSnarf && config.thin_part_decay_fraction >= 0 &&
+        config.thin_part_decay_fraction != config.decay_fraction) {
+      config.decay_fraction = config.thin_part_decay_fraction;
+      schedule = fmt::format(" and the learning rate decaying over {:g} of the steps (thin_part_decay_fraction; -1 "
+                             "keeps decay_fraction)",
+                             config.decay_fraction);
+    }
     std::fprintf(stderr,
                  "fskin: %.1f %% of the canonical surface is thinner than a grid_resolution=%lld cell (%.3g in the "
-                 "model's units): training with grid_resolution=%lld (thin_part_grid_resolution; 0 turns this off)\n",
+                 "model's units): training with grid_resolution=%lld (thin_part_grid_resolution; 0 turns this "
+                 "off)%s\n",
                  100 * thin.thin_fraction, static_cast<long long>(config.grid_resolution), thin.cell,
-                 static_cast<long long>(config.thin_part_grid_resolution));
+                 static_cast<long long>(config.thin_part_grid_resolution), schedule.c_str());
     config.grid_resolution = config.thin_part_grid_resolution;
     thin = measure(config);
   }

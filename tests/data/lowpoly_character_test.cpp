@@ -210,7 +210,7 @@ TEST(LowPolyCharacterCommand, WritesTheModelAndItsClips) {
 // The fox's ears and tail are thinner than the default grid's cells: a fresh
 // run trains on the finer thin_part_grid_resolution grid, says so, and warns
 // about the parts still thinner than its cells; thin_part_grid_resolution=0
-// keeps the default grid.
+// keeps the default grid (and schedule).
 TEST(LowPolyCharacterCommand, TrainingRefinesTheGridForTheFoxsThinPartsAndWarnsAboutTheRest) {
   if (!inside_test_available()) GTEST_SKIP() << "built without Embree";
   const auto dir = testing::temp_dir("lowpoly_thin_warning");
@@ -234,11 +234,19 @@ TEST(LowPolyCharacterCommand, TrainingRefinesTheGridForTheFoxsThinPartsAndWarnsA
   EXPECT_NE(refined.find("thinner than the skinning grid's cells"), std::string::npos) << refined;
   EXPECT_NE(refined.find("ear"), std::string::npos) << refined;
   EXPECT_EQ(TrainConfig::load_run(path("run/config.json")).grid_resolution, 48);
+  // ... and, with Fast-SNARF, the learning rate decaying over all the steps.
+  EXPECT_NE(refined.find("decaying over 1 of the steps"), std::string::npos) << refined;
+  EXPECT_EQ(TrainConfig::load_run(path("run/config.json")).decay_fraction, 1.0);
+  const std::string own_schedule = train("run_own_schedule", "--set thin_part_decay_fraction=-1");
+  EXPECT_EQ(own_schedule.find("decaying over"), std::string::npos) << own_schedule;
+  EXPECT_EQ(TrainConfig::load_run(path("run_own_schedule/config.json")).grid_resolution, 48);
+  EXPECT_EQ(TrainConfig::load_run(path("run_own_schedule/config.json")).decay_fraction, 0.5);
 
   const std::string kept = train("run_kept", "--set thin_part_grid_resolution=0");
   EXPECT_EQ(kept.find("training with grid_resolution"), std::string::npos) << kept;
   EXPECT_NE(kept.find("(grid_resolution=32;"), std::string::npos) << kept;
   EXPECT_EQ(TrainConfig::load_run(path("run_kept/config.json")).grid_resolution, 32);
+  EXPECT_EQ(TrainConfig::load_run(path("run_kept/config.json")).decay_fraction, 0.5);
 }
 
 INSTANTIATE_TEST_SUITE_P(Kinds, LowPoly, ::testing::Values(LowPolyKind::Humanoid, LowPolyKind::Animal),

@@ -57,6 +57,27 @@ TEST(PointSampling, SameSeedSamePointsOtherSeedOtherPoints) {
   EXPECT_FALSE(torch::equal(pa, sample_frame_points(mesh, options, c)));
 }
 
+TEST(PointSampling, AShareOfTheSurfacePointsGoesToTheEmphasisedFaces) {
+  // Box 1 x 2 x 4: faces normal to x, y, z have areas 8, 4, 2 (twice each).
+  const auto mesh = testing::box_mesh({0, 0, 0}, {1, 2, 4});
+  SamplingOptions options;
+  options.uniform_points = 100;
+  options.surface_points = 20000;
+  options.noise_sigma = 0;
+  Rng a(3), b(3), c(3);
+  // Share 0 draws exactly what the plain sampler draws.
+  EXPECT_TRUE(torch::equal(sample_frame_points(mesh, options, a),
+                           sample_frame_points(mesh, options, b, torch::tensor({0, 1}, torch::kInt64), 0.0)));
+  // Half of them on the x = 0 face (area 8 of 28), plus its area share of the rest.
+  const auto face_x = mesh.vertices.select(1, 0).index_select(0, mesh.faces.reshape({-1})).reshape({-1, 3});
+  const auto faces = (face_x.abs().amax(1) < 1e-9).nonzero().reshape({-1});
+  ASSERT_EQ(faces.size(0), 2);
+  const auto points = sample_frame_points(mesh, options, c, faces, 0.5).slice(0, 100);
+  const double on_face = (points.select(1, 0).abs() < 1e-5).sum().item<double>() / 20000.0;
+  EXPECT_NEAR(on_face, 0.5 + 0.5 * 8.0 / 28.0, 0.015);
+  testing::expect_error([&] { sample_frame_points(mesh, options, c, faces, 1.5); }, {"emphasised share"});
+}
+
 TEST(PointSampling, RejectsBadOptions) {
   SamplingOptions options;
   options.box_scale = 0.5;

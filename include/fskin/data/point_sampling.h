@@ -44,5 +44,11 @@ SurfaceSamples sample_surface_with_faces(const Mesh& mesh, int64_t count, Rng& r
 torch::Tensor sample_box(const Box& box, int64_t count, Rng& rng);
 // [uniform_points + surface_points, 3] float32: the uniform part first.
 torch::Tensor sample_frame_points(const Mesh& mesh, const SamplingOptions& options, Rng& rng);
+// The same with `share` of the near-surface samples drawn on the faces
+// `emphasised_faces` [K] int64 (area-uniform among them) and the rest
+// area-uniform over the whole surface (thin parts, data/thin_parts.h). Share 0
+// draws exactly what the function above draws.
+torch::Tensor sample_frame_points(const Mesh& mesh, const SamplingOptions& options, Rng& rng,
+                                  const torch::Tensor& emphasised_faces, double share);
 
 }  // namespace fskin
