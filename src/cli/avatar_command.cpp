@@ -94,6 +94,10 @@ void register_avatar(CLI::App& app) {
                 "length of a learned code per training frame that the colour is conditioned on (light that "
                 "changes from frame to frame; new poses get the codes' mean); 0: none")
       ->check(CLI::NonNegativeNumber);
+  t->add_flag(
+      "--learn-skinning", [train](int64_t) { train->avatar.skinning = "learned"; },
+      "learn the skinning weights through the renderer, from the character's (clothing, hair; "
+      "losses.skinning_prior.weight keeps them near)");
   t->add_flag("--refine-poses", train->refine_poses,
               "learn a correction of every training pose with the avatar (noisy captured poses; "
               "pose_refinement.* in the config)");

@@ -23,6 +23,8 @@ void AvatarOptions::validate() const {
   FSKIN_CHECK(samples_per_diagonal >= 8 && samples_per_diagonal <= 8192,
               "avatar: samples per diagonal must be within 8..8192, got {}", samples_per_diagonal);
   FSKIN_CHECK(start_bones >= 1, "avatar: start bones must be >= 1, got {}", start_bones);
+  FSKIN_CHECK(skinning == "preset" || skinning == "learned", "avatar: skinning must be preset or learned, got '{}'",
+              skinning);
   FSKIN_CHECK(occupancy_opacity > 0 && occupancy_opacity < 1, "avatar: occupancy opacity must be within (0, 1), got {}",
               occupancy_opacity);
 }
@@ -36,8 +38,16 @@ AvatarImpl::AvatarImpl(const RiggedMesh& character, AvatarOptions options) : opt
     lower_[c] = lo[c].item<double>() - grow;
     upper_[c] = hi[c].item<double>() + grow;
   }
-  skinning_ = diffuse_weights_to_grid(vertices, character.weights,
-                                      VoxelBox::fit(vertices.to(torch::kFloat64), options_.skinning_grid_resolution));
+  const auto preset = diffuse_weights_to_grid(
+      vertices, character.weights, VoxelBox::fit(vertices.to(torch::kFloat64), options_.skinning_grid_resolution));
+  preset_grid_ = preset->grid_weights().to(torch::kFloat32);
+  skinning_ = preset;
+  if (options_.skinning == "learned") {
+    skinning_logits_ = register_parameter("skinning_logits", torch::log(preset_grid_.clamp_min(1e-3)));
+    learned_skinning_ = std::make_shared<CallerGridSkinningField>(
+        torch::softmax(skinning_logits_.detach(), -1), preset->box());
+    skinning_ = learned_skinning_;
+  }
   auto deformer_options = DeformerOptions::fast_snarf().scaled(length_unit(vertices, "avatar: canonical vertices"));
   deformer_options.start_bones =
       StartBones::automatic(std::min<int64_t>(options_.start_bones, character.num_joints()));
@@ -59,6 +69,17 @@ OccupancyGrid AvatarImpl::canonical_grid() const {
 }
 
 void AvatarImpl::reset_canonical_occupancy() { occupancy_.fill_(1); }
+
+void AvatarImpl::refresh_skinning() {
+  if (!learned_skinning_) return;
+  const auto grid = torch::softmax(skinning_logits_, -1);
+  learned_skinning_->set_grid(torch::GradMode::is_enabled() ? grid : grid.detach());
+}
+
+torch::Tensor AvatarImpl::skinning_prior() {
+  if (!learned_skinning_) return torch::zeros({});
+  return (torch::softmax(skinning_logits_, -1) - preset_grid_).pow(2).sum(-1).mean();
+}
 
 void AvatarImpl::update_canonical_occupancy() {
   torch::NoGradGuard no_grad;
@@ -184,9 +205,10 @@ RayRender AvatarImpl::render_rays(const PosedFrame& frame, const torch::Tensor& 
   torch::Tensor rgb_dense = torch::zeros({A, S, 3}, torch::TensorOptions(device));
   if (M > 0) {
     DeformerOutput found;
-    if (frame.bones.requires_grad()) {
-      // Bones being refined (radiance/pose_correction.h): the correspondences
-      // carry the implicit gradient w.r.t. the bones (Fast-SNARF eq. 16-17).
+    if (frame.bones.requires_grad() || (learned_skinning_ && learned_skinning_->requires_grad())) {
+      // Bones being refined (radiance/pose_correction.h) or skinning being
+      // learned: the correspondences carry the implicit gradient w.r.t. the
+      // bones and the weight grid (Fast-SNARF eq. 16-17).
       found = deformer_->forward(posed.unsqueeze(0), frame.bones.unsqueeze(0));
     } else {
       // Preset weights and given bones: the correspondences carry no gradient.

@@ -54,6 +54,8 @@ const Field kFields[] = {
     FSKIN_AVATAR_FIELD("/model/field/appearance/hidden_dim", "appearance_hidden_dim",
                        avatar.field.appearance_hidden_dim),
     FSKIN_AVATAR_FIELD("/model/skinning/grid_resolution", "skinning_grid_resolution", avatar.skinning_grid_resolution),
+    FSKIN_AVATAR_FIELD("/model/skinning/type", "skinning", avatar.skinning),
+    FSKIN_AVATAR_FIELD("/losses/skinning_prior/weight", "skinning_prior", skinning_prior),
     FSKIN_AVATAR_FIELD("/model/deformer/start_bones", "start_bones", avatar.start_bones),
     FSKIN_AVATAR_FIELD("/model/occupancy_grid/canonical_resolution", "canonical_grid_resolution",
                        avatar.canonical_grid_resolution),

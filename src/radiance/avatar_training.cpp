@@ -52,6 +52,8 @@ void AvatarTrainOptions::validate() const {
               "avatar train: the pose learning rate {} must be in (0, 1]", pose_learning_rate);
   FSKIN_CHECK(std::isfinite(pose_regularizer) && pose_regularizer >= 0,
               "avatar train: the pose regulariser must be >= 0 (finite), got {}", pose_regularizer);
+  FSKIN_CHECK(std::isfinite(skinning_prior) && skinning_prior >= 0,
+              "avatar train: the skinning prior must be >= 0 (finite), got {}", skinning_prior);
   FSKIN_CHECK(occupancy_every >= 1 && occupancy_warmup >= 0 && checkpoint_every >= 1 && log_every >= 1,
               "avatar train: occupancy, checkpoint and log intervals must be >= 1");
 }
@@ -61,6 +63,15 @@ namespace {
 constexpr const char* kAvatarArchiveKey = "avatar";
 constexpr const char* kPoseCorrectionsKey = "pose_corrections";  // inside the avatar's archive
 constexpr const char* kAppearanceCodesKey = "appearance_codes";  // inside the avatar's archive
+
+// The part `key` of a checkpoint's avatar archive, which the run's settings
+// say it holds (`what`: what the run does that needs it).
+torch::serialize::InputArchive checkpoint_part(torch::serialize::InputArchive& archive, const char* key,
+                                               const std::string& run_dir, const char* what) {
+  torch::serialize::InputArchive part;
+  FSKIN_CHECK(archive.try_read(key, part), "{}: the run {} but its checkpoint holds no '{}'", run_dir, what, key);
+  return part;
+}
 
 // Per image, its mask's box grown by 20 % of its size (ends exclusive).
 std::vector<std::array<int64_t, 4>> mask_boxes(const ImageSplit& split) {
@@ -132,6 +143,10 @@ class AvatarTrainable : public Trainable {
     torch::serialize::InputArchive model;
     archive.read(kAvatarArchiveKey, model);
     avatar_->load(model);
+    {
+      torch::NoGradGuard no_grad;  // each step sets its own grid with a graph
+      avatar_->refresh_skinning();
+    }
     if (corrections_) {
       torch::serialize::InputArchive poses;
       model.read(kPoseCorrectionsKey, poses);
@@ -165,6 +180,8 @@ class AvatarTrainable : public Trainable {
       avatar_->update_canonical_occupancy();
       ++occupancy_version_;
     }
+    // Learned skinning: this step's grid, with its graph (avatar.h).
+    avatar_->refresh_skinning();
     const auto images = torch::randint(split_.size(), {image_count}, torch::kInt64);
     std::vector<torch::Tensor> colors, opacities, targets, masks;
     std::vector<int64_t> refined_frames;
@@ -207,6 +224,11 @@ class AvatarTrainable : public Trainable {
       const auto pose_loss = options_.pose_regularizer * corrections_->squared_size(refined_frames);
       out.total = out.total + pose_loss;
       out.terms.push_back({"pose", pose_loss.detach()});
+    }
+    if (avatar_->learns_skinning()) {
+      const auto prior = options_.skinning_prior * avatar_->skinning_prior();
+      out.total = out.total + prior;
+      out.terms.push_back({"skinning", prior.detach()});
     }
     out.metrics = {{"psnr", -10 * torch::log10(mse.clamp_min(1e-12))}};
     out.host_metrics = {{"samples_per_ray", static_cast<double>(samples) / options_.rays_per_step},
@@ -329,22 +351,21 @@ TrainedAvatar TrainedAvatar::load(const std::string& run_dir) {
                                    [&out, &run_dir](torch::serialize::InputArchive& archive) {
                                      out.avatar->load(archive);
                                      if (out.options.avatar.field.appearance_dim > 0) {
-                                       torch::serialize::InputArchive codes;
-                                       FSKIN_CHECK(archive.try_read(kAppearanceCodesKey, codes),
-                                                   "{}: the run learns appearance codes but its checkpoint holds "
-                                                   "none",
-                                                   run_dir);
+                                       auto codes = checkpoint_part(archive, kAppearanceCodesKey, run_dir,
+                                                                    "learns appearance codes");
                                        out.appearance = AppearanceCodes(AppearanceCodesImpl::read(codes));
                                      }
-                                     if (!out.options.refine_poses) return;
-                                     torch::serialize::InputArchive poses;
-                                     FSKIN_CHECK(archive.try_read(kPoseCorrectionsKey, poses),
-                                                 "{}: the run refines poses but its checkpoint holds no pose "
-                                                 "corrections",
-                                                 run_dir);
-                                     out.corrections = PoseCorrections(PoseCorrectionsImpl::read(poses));
+                                     if (out.options.refine_poses) {
+                                       auto poses = checkpoint_part(archive, kPoseCorrectionsKey, run_dir,
+                                                                    "refines poses");
+                                       out.corrections = PoseCorrections(PoseCorrectionsImpl::read(poses));
+                                     }
                                    });
   out.avatar->eval();
+  {
+    torch::NoGradGuard no_grad;  // the loaded grid, without a graph (renders and pose fitting)
+    out.avatar->refresh_skinning();
+  }
   return out;
 }
 

@@ -84,13 +84,14 @@ TEST_F(AvatarCommands, NoisyPosesAreRefinedReportedAndFitted) {
   EXPECT_NE(log().find("not empty"), std::string::npos) << log();
   ASSERT_EQ(run_cli("avatar train --data " + path("noisy") + " --out " + path("refined") +
                     " --steps 4 --rays 128 --levels 4 --log2-table-size 12 --refine-poses --shading lambert"
-                    " --appearance-codes 4 --quiet"),
+                    " --appearance-codes 4 --learn-skinning --quiet"),
             0)
       << log();
   const auto recorded = nlohmann::json::parse(read_file(path("refined/avatar.json")));
   EXPECT_EQ(recorded.at("pose_refinement").at("enabled"), true);
   EXPECT_EQ(recorded.at("model").at("field").at("shading"), "lambert");
   EXPECT_EQ(recorded.at("model").at("field").at("appearance").at("dim"), 4);
+  EXPECT_EQ(recorded.at("model").at("skinning").at("type"), "learned");
   ASSERT_EQ(run_cli("avatar poses " + path("refined") + " --out " + path("refined.npz")), 0) << log();
   EXPECT_NE(log().find("against the exact poses: given "), std::string::npos) << log();
   EXPECT_TRUE(io::NpzReader(path("refined.npz")).contains("bone_transforms_exact"));

@@ -8,6 +8,14 @@
 // samples are composited along each ray (ops/ray_compositing.h, eq. 18-19).
 // Empty space is skipped with occupancy grids (occupancy_grid.h): a canonical
 // one refreshed from the field's density, a posed one per frame from it.
+//
+// Skinning "learned" (Fast-SNARF sec. 7 learns the avatar's skinning; here
+// for clothing and hair the rig's weights do not fit): the weight grid is
+// softmax(L) over the bones, L a parameter started at the log of the preset
+// grid (floored at 1e-3, so that every bone can still win a voxel), and the
+// rays' correspondences carry the implicit gradient with respect to the
+// grid (Fast-SNARF eq. 16-17), so the renderer's loss trains it;
+// skinning_prior() keeps it near the preset weights.
 #include <torch/torch.h>
 
 #include <array>
@@ -24,6 +32,7 @@ namespace fskin {
 struct AvatarOptions {
   RadianceFieldOptions field;
   int64_t skinning_grid_resolution = 64;  // voxels along the canonical box's longest side
+  std::string skinning = "preset";        // "preset" (the character's weights) or "learned" (above)
   int64_t canonical_grid_resolution = 64;
   int64_t posed_grid_resolution = 48;
   // Samples along the diagonal of a frame's posed box (the step of every ray).
@@ -74,6 +83,14 @@ class AvatarImpl : public torch::nn::Module {
   void update_canonical_occupancy();
   // Every canonical cell occupied (before the field has learned anything).
   void reset_canonical_occupancy();
+  // Learned skinning: sets the deformer's grid from the parameter, with its
+  // autograd graph when gradients are enabled (training calls it before each
+  // step's rays) and detached otherwise (after loading); preset: nothing.
+  void refresh_skinning();
+  bool learns_skinning() const { return skinning_logits_.defined(); }
+  // Learned skinning: the mean over voxels of the squared distance between
+  // the learned and the preset weights (summed over bones); preset: 0.
+  torch::Tensor skinning_prior();
 
   RadianceField& field() { return field_; }
   // The canonical occupancy grid (a copy of the module's buffer "canonical_occupancy").
@@ -86,7 +103,10 @@ class AvatarImpl : public torch::nn::Module {
  private:
   AvatarOptions options_;
   std::array<double, 3> lower_, upper_;
-  std::shared_ptr<FrozenSkinningField> skinning_;
+  std::shared_ptr<GridSkinningField> skinning_;
+  std::shared_ptr<CallerGridSkinningField> learned_skinning_;  // learned: the grid the deformer reads
+  torch::Tensor preset_grid_;      // [D, H, W, J] the character's weights in the grid
+  torch::Tensor skinning_logits_;  // learned: L, a parameter
   std::unique_ptr<FastSnarfDeformer> deformer_;
   RadianceField field_{nullptr};
   torch::Tensor occupancy_;  // [R, R, R] uint8, saved with the module

@@ -45,6 +45,10 @@ struct AvatarTrainOptions {
   bool refine_poses = false;
   double pose_learning_rate = 1e-3;
   double pose_regularizer = 1e-3;
+  // With avatar.skinning "learned" (avatar.h): skinning_prior x the mean
+  // squared distance of the learned weight grid from the preset one, added
+  // to the loss. The grid's logits train at learning_rate.
+  double skinning_prior = 1.0;
   int64_t occupancy_every = 100;   // steps between canonical occupancy updates
   int64_t occupancy_warmup = 100;  // all cells occupied until this step
   int64_t checkpoint_every = 500;
