@@ -101,9 +101,13 @@ def test_image_dataset_training_and_evaluation(tmp_path):
     config = tmp_path / "avatar.json"
     config.write_text(json.dumps({"model": {"field": {"network": {"hidden_dim": 16}}}}))
     fskin.train_avatar(str(tmp_path / "images"), str(tmp_path / "run2"), steps=2, rays_per_step=64,
-                       settings=["model.occupancy_grid.every=7", "losses.opacity.weight=0.2"], config=str(config))
+                       settings=["model.occupancy_grid.every=7", "losses.opacity.weight=0.2",
+                                 "model.skinning.type=learned", "model.field.appearance.dim=4"], config=str(config))
     recorded = json.loads((tmp_path / "run2" / "avatar.json").read_text())
     assert recorded["model"]["occupancy_grid"]["every"] == 7
+    assert recorded["model"]["skinning"]["type"] == "learned"
+    assert recorded["model"]["field"]["appearance"]["dim"] == 4
+    assert fskin.evaluate_avatar(str(tmp_path / "run2"), split="train", max_images=1)["images"] == 1
     assert recorded["model"]["field"]["network"]["hidden_dim"] == 16
     assert recorded["losses"]["opacity"]["weight"] == 0.2
     with pytest.raises(fskin.Error, match="model.occupancy_grid.evry: unknown key"):
