@@ -51,9 +51,9 @@ void fit_grid_to_thin_parts(TrainConfig& config, const Dataset& dataset) {
     if (model_options(config, skeleton).method == Method::FastSnarf && config.thin_part_decay_fraction >= 0 &&
         config.thin_part_decay_fraction != config.decay_fraction) {
       config.decay_fraction = config.thin_part_decay_fraction;
-      schedule = fmt::format(" and the learning rate decaying over {:g} of the steps (thin_part_decay_fraction; -1 "
-                             "keeps decay_fraction)",
-                             config.decay_fraction);
+      schedule = fmt::format(" and the learning rate decaying over the last {:g} % of the steps "
+                             "(thin_part_decay_fraction; -1 keeps decay_fraction)",
+                             100 * config.decay_fraction);
     }
     std::fprintf(stderr,
                  "fskin: %.1f %% of the canonical surface is thinner than a grid_resolution=%lld cell (%.3g in the "

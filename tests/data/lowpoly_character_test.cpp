@@ -235,7 +235,7 @@ TEST(LowPolyCharacterCommand, TrainingRefinesTheGridForTheFoxsThinPartsAndWarnsA
   EXPECT_NE(refined.find("ear"), std::string::npos) << refined;
   EXPECT_EQ(TrainConfig::load_run(path("run/config.json")).grid_resolution, 48);
   // ... and, with Fast-SNARF, the learning rate decaying over all the steps.
-  EXPECT_NE(refined.find("decaying over 1 of the steps"), std::string::npos) << refined;
+  EXPECT_NE(refined.find("decaying over the last 100 % of the steps"), std::string::npos) << refined;
   EXPECT_EQ(TrainConfig::load_run(path("run/config.json")).decay_fraction, 1.0);
   const std::string own_schedule = train("run_own_schedule", "--set thin_part_decay_fraction=-1");
   EXPECT_EQ(own_schedule.find("decaying over"), std::string::npos) << own_schedule;
