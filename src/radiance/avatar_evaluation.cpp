@@ -99,9 +99,11 @@ AvatarEvaluation evaluate_avatar_run(const std::string& run_dir, const std::stri
   auto scores = evaluate_avatar(trained.avatar, data, split, max_images, progress,
                          [&](const ImageSplit& images, int64_t i) {
                            const auto& given = images.bone_transforms[i];
-                           const auto bones = fit_pose_to_image(trained.avatar, images, i, trained.bones_for(given),
-                                                                data.background(), character.skeleton, size, fitting);
-                           return FrameInputs{bones, trained.appearance_for(given)};
+                           const auto appearance = trained.appearance_for(given);
+                           const auto bones =
+                               fit_pose_to_image(trained.avatar, images, i, trained.bones_for(given),
+                                                 data.background(), character.skeleton, size, fitting, appearance);
+                           return FrameInputs{bones, appearance};
                          });
   scores.pose_fitting_steps = fitting.steps;
   return scores;

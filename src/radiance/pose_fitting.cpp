@@ -18,7 +18,7 @@ void PoseFittingOptions::validate() const {
 
 torch::Tensor fit_pose_to_image(Avatar& avatar, const ImageSplit& split, int64_t image, const torch::Tensor& bones,
                                 const std::array<double, 3>& dataset_background, const Skeleton& skeleton, double size,
-                                const PoseFittingOptions& options) {
+                                const PoseFittingOptions& options, const torch::Tensor& appearance) {
   options.validate();
   const auto given = bones.detach().to(torch::kCPU, torch::kFloat32).contiguous();
   if (options.steps == 0) return given;
@@ -43,6 +43,7 @@ torch::Tensor fit_pose_to_image(Avatar& avatar, const ImageSplit& split, int64_t
   const auto box = mask_box(split.masks[image], 0.2);
   // The posed grids of the given pose (dilated by a cell) hold the small corrections' samples.
   PosedFrame frame = avatar->pose(given);
+  frame.appearance = appearance;
   for (int64_t step = 0; step < options.steps; ++step) {
     torch::manual_seed(options.seed + static_cast<uint64_t>(step));
     const auto rays = sample_image_rays(split, image, box, options.rays, 0.9, "dataset", background);

@@ -28,8 +28,10 @@ struct PoseFittingOptions {
 // The corrected bones [J, 4, 4] of image `image` of `split`, starting from
 // `bones`; the avatar is not changed. skeleton / size: the character's
 // (corrections apply down its tree; size: geometry/character_size.h).
+// appearance: the image's appearance code (the one it is rendered with;
+// undefined: the mean appearance).
 torch::Tensor fit_pose_to_image(Avatar& avatar, const ImageSplit& split, int64_t image, const torch::Tensor& bones,
                                 const std::array<double, 3>& dataset_background, const Skeleton& skeleton, double size,
-                                const PoseFittingOptions& options);
+                                const PoseFittingOptions& options, const torch::Tensor& appearance = {});
 
 }  // namespace fskin
