@@ -78,7 +78,8 @@ void AvatarImpl::refresh_skinning() {
 
 torch::Tensor AvatarImpl::skinning_prior() {
   if (!learned_skinning_) return torch::zeros({});
-  return (torch::softmax(skinning_logits_, -1) - preset_grid_).pow(2).sum(-1).mean();
+  // The grid the deformer reads (with this step's graph after refresh_skinning), not a second softmax.
+  return (learned_skinning_->grid_weights() - preset_grid_).pow(2).sum(-1).mean();
 }
 
 void AvatarImpl::update_canonical_occupancy() {

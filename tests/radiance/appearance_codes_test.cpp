@@ -19,11 +19,8 @@ namespace fs = std::filesystem;
 
 RadianceField field_with_codes(int64_t dim) {
   RadianceFieldOptions options;
-  options.encoding.levels = 4;
-  options.encoding.log2_table_size = 10;
-  options.hidden_dim = 16;
   options.appearance_dim = dim;
-  return RadianceField(options, std::array<double, 3>{-1, -1, -1}, std::array<double, 3>{1, 1, 1});
+  return testing::small_radiance_field(options);
 }
 
 TEST(AppearanceCodes, TheHeadStartsNeutralAndNeverChangesDensity) {

@@ -14,11 +14,8 @@ namespace {
 
 RadianceField small_field(const std::string& shading) {
   RadianceFieldOptions options;
-  options.encoding.levels = 4;
-  options.encoding.log2_table_size = 10;
-  options.hidden_dim = 16;
   options.shading = shading;
-  return RadianceField(options, std::array<double, 3>{-1, -1, -1}, std::array<double, 3>{1, 1, 1});
+  return testing::small_radiance_field(options);
 }
 
 TEST(Shading, LambertColoursFollowTheSamplesRotation) {

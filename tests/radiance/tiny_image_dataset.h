@@ -13,6 +13,7 @@
 #include "fskin/radiance/image_dataset.h"
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/radiance/image_dataset_builder.h"
+#include "fskin/radiance/radiance_field.h"
 #include "test_util.h"
 
 namespace fskin::testing {
@@ -49,6 +50,15 @@ inline const TinyImageDataset& tiny_image_dataset() {
     return d;
   }();
   return *data;
+}
+
+// A small radiance field over the box [-1, 1]^3 with `options`' shading and
+// appearance settings (4 hash levels of 2^10 rows, 16 hidden units).
+inline RadianceField small_radiance_field(RadianceFieldOptions options) {
+  options.encoding.levels = 4;
+  options.encoding.log2_table_size = 10;
+  options.hidden_dim = 16;
+  return RadianceField(options, std::array<double, 3>{-1, -1, -1}, std::array<double, 3>{1, 1, 1});
 }
 
 inline AvatarOptions small_avatar() {

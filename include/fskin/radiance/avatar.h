@@ -89,7 +89,8 @@ class AvatarImpl : public torch::nn::Module {
   void refresh_skinning();
   bool learns_skinning() const { return skinning_logits_.defined(); }
   // Learned skinning: the mean over voxels of the squared distance between
-  // the learned and the preset weights (summed over bones); preset: 0.
+  // the deformer's current grid (refresh_skinning) and the preset weights
+  // (summed over bones); preset: 0.
   torch::Tensor skinning_prior();
 
   RadianceField& field() { return field_; }
