@@ -42,8 +42,10 @@ run timeout 150 ./build-gpu/tests/fskin_tests \
 run timeout 60 ./build-gpu/fskin bench deform --device cuda --points 200000 --starts 9 --repeat 20 --pose both
 run timeout 60 ./build-gpu/fskin bench deform --device cpu --points 200000 --starts 9 --repeat 3 --pose natural
 # The hash encoding (1M points) and the ray compositing (64k rays x 64 samples), forward +
-# backward, fused vs LibTorch operations, CPU and CUDA.
+# backward, fused vs LibTorch operations, CPU and CUDA; a 256 x 256 frame of 10k-500k
+# Gaussians (projection + rasteriser), alone and with its backward (issue 37's >= 300 frames/s).
 run timeout 120 ./build-gpu/fskin_bench --benchmark_filter='HashEncoding|RayCompositing' --benchmark_min_time=0.5
+run timeout 90 ./build-gpu/fskin_bench --benchmark_filter='GaussianFrame' --benchmark_min_time=0.3
 DATA=.gpu-debs/data/set
 if [ -d "$DATA" ]; then
   # Training steps/s on the GPU and on this machine's CPU cores (the log's last line).

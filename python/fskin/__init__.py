@@ -38,6 +38,7 @@ from ._fskin import (  # noqa: F401
     ood_poses,
     perturb_poses,
     quadruped,
+    rasterize_gaussians,
     read_mesh,
     refined_poses,
     render_avatar,

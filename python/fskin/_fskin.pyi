@@ -335,6 +335,13 @@ def quadruped(length: float = ..., seed: int = ..., resolution: int = ...) -> Bo
     """The built-in 33-joint quadruped as a BodyModel"""
     ...
 
+def rasterize_gaussians(means2d: torch.Tensor, conics: torch.Tensor, colors: torch.Tensor, opacities: torch.Tensor, depths: torch.Tensor, radii: torch.Tensor, background: torch.Tensor, width: int, height: int) -> tuple:
+    """Tile-based rasterisation of 2-D Gaussians (fused op, 3DGS's image formation): means2d [N, 2]
+    pixels, conics [N, 3] (inverse 2-D covariance a, b, c), colors [N, C], opacities [N], depths [N],
+    radii [N] pixels, background [C] -> (image [H, W, C], alpha [H, W]); differentiable in means2d,
+    conics, colors, opacities and background"""
+    ...
+
 def read_mesh(path: str) -> tuple:
     """Read a .ply or .obj mesh: (vertices [V, 3], faces [F, 3])"""
     ...

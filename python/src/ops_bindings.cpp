@@ -1,6 +1,7 @@
 // The fused ops' typed wrappers; the same ops are torch.ops.fskin.* (PyTorch's dispatcher).
 #include "bindings.h"
 
+#include "fskin/ops/gaussian_rasterization.h"
 #include "fskin/ops/hash_encoding.h"
 #include "fskin/ops/ray_compositing.h"
 
@@ -52,6 +53,21 @@ void bind_ops(py::module_& m) {
       py::arg("sigma"), py::arg("rgb"), py::arg("delta"), py::arg("background"),
       "Volume-rendering compositing (fused op): sigma [R, S], rgb [R, S, 3], delta [R, S], background [R, 3] -> "
       "(color [R, 3], opacity [R]); differentiable in all four inputs");
+  m.def(
+      "rasterize_gaussians",
+      [](const torch::Tensor& means2d, const torch::Tensor& conics, const torch::Tensor& colors,
+         const torch::Tensor& opacities, const torch::Tensor& depths, const torch::Tensor& radii,
+         const torch::Tensor& background, int64_t width, int64_t height) {
+        const auto [image, alpha] =
+            fskin::rasterize_gaussians(means2d, conics, colors, opacities, depths, radii, background, width, height);
+        return py::make_tuple(image, alpha);
+      },
+      py::arg("means2d"), py::arg("conics"), py::arg("colors"), py::arg("opacities"), py::arg("depths"),
+      py::arg("radii"), py::arg("background"), py::arg("width"), py::arg("height"),
+      "Tile-based rasterisation of 2-D Gaussians (fused op, 3DGS's image formation): means2d [N, 2] pixels, conics "
+      "[N, 3] (inverse 2-D covariance a, b, c), colors [N, C], opacities [N], depths [N], radii [N] pixels, "
+      "background [C] -> (image [H, W, C], alpha [H, W]); differentiable in means2d, conics, colors, opacities and "
+      "background");
 }
 
 }  // namespace fskin::python

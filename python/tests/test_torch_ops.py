@@ -111,3 +111,25 @@ def test_pin_pass_is_a_dispatcher_op_the_fused_pin_calls():
         torch.ops.fskin.pin_pass(points, packed, shape[:6] + [3] + shape[7:], False)
     with pytest.raises(RuntimeError, match="pin_pass: packed parameters"):
         torch.ops.fskin.pin_pass(points, packed[:, :-1], shape, False)
+
+
+def test_rasterize_gaussians_is_a_dispatcher_op_with_gradients():
+    torch.manual_seed(1)
+    n = 5
+    means2d = (torch.rand(n, 2, dtype=torch.float64) * 20).requires_grad_()
+    sigma = 1.5 + 2 * torch.rand(n, dtype=torch.float64)
+    conics = torch.stack([1 / sigma**2, torch.zeros(n, dtype=torch.float64), 1 / sigma**2], 1).requires_grad_()
+    colors = torch.rand(n, 3, dtype=torch.float64, requires_grad=True)
+    opacities = (0.2 + 0.5 * torch.rand(n, dtype=torch.float64)).requires_grad_()
+    depths = torch.rand(n, dtype=torch.float64)
+    radii = torch.ceil(3 * sigma)
+    background = torch.rand(3, dtype=torch.float64, requires_grad=True)
+    image, alpha = torch.ops.fskin.rasterize_gaussians(means2d, conics, colors, opacities, depths, radii, background,
+                                                       20, 18)
+    expected_image, expected_alpha = fskin.rasterize_gaussians(means2d, conics, colors, opacities, depths, radii,
+                                                               background, 20, 18)
+    assert image.shape == (18, 20, 3) and alpha.shape == (18, 20)
+    assert torch.equal(image, expected_image) and torch.equal(alpha, expected_alpha)
+    assert torch.autograd.gradcheck(
+        lambda m, q, c, o, b: torch.ops.fskin.rasterize_gaussians(m, q, c, o, depths, radii, b, 20, 18),
+        (means2d, conics, colors, opacities, background))

@@ -2,7 +2,8 @@
 // Fast-SNARF search (grid precompute, Broyden, duplicate filter) gives the
 // same roots and validity, and the implicit gradients agree; each fused op on
 // its own (grid skinning, duplicate filter, SNARF's Broyden lanes, the PIN
-// pass); bad inputs are errors on CUDA too; training on CUDA follows the CPU
+// pass, the hash encoding, ray compositing, the Gaussian rasteriser); bad
+// inputs are errors on CUDA too; training on CUDA follows the CPU
 // and its checkpoints load on the CPU. Skipped where no CUDA device exists
 // (every CPU machine, CI); scripts/gpu_check.sh runs them on a GPU machine.
 #include <gtest/gtest.h>
@@ -15,6 +16,7 @@
 #include "fskin/deformers/snarf_deformer.h"
 #include "fskin/evaluation/evaluation.h"
 #include "fskin/ops/filter_duplicate_roots.h"
+#include "fskin/ops/gaussian_rasterization.h"
 #include "fskin/ops/grid_forward_skinning.h"
 #include "fskin/ops/hash_encoding.h"
 #include "fskin/ops/pin_pass.h"
@@ -217,6 +219,35 @@ TEST_F(CudaOnly, RayCompositingMatchesTheCpuForwardAndBackward) {
     EXPECT_LT((a_color - b_color).abs().max().item<double>(), tolerance);
     EXPECT_LT((a_s - b_s).abs().max().item<double>(), 10 * tolerance);
     EXPECT_LT((a_c - b_c).abs().max().item<double>(), tolerance);
+  }
+}
+
+TEST_F(CudaOnly, GaussianRasterizationMatchesTheCpuForwardAndBackward) {
+  for (const auto dtype : {torch::kFloat32, torch::kFloat64}) {
+    torch::manual_seed(8);
+    const int64_t n = 3000, width = 93, height = 71;
+    const auto means2d = torch::rand({n, 2}, dtype) * torch::tensor({width + 10.0, height + 10.0}, dtype) - 5;
+    const auto sigma = 1 + 4 * torch::rand({n}, dtype);
+    const auto conics = torch::stack({1 / (sigma * sigma), torch::zeros_like(sigma), 1 / (sigma * sigma)}, 1);
+    const auto colors = torch::rand({n, 3}, dtype), opacities = torch::rand({n}, dtype);
+    const auto depths = torch::rand({n}, dtype), radii = torch::ceil(3 * sigma);
+    const auto background = torch::rand({3}, dtype);
+    const auto run = [&](const torch::Device device) {
+      const auto m = means2d.to(device).requires_grad_(true), c = colors.to(device).requires_grad_(true);
+      const auto o = opacities.to(device).requires_grad_(true);
+      const auto [image, alpha] = rasterize_gaussians(m, conics.to(device), c, o, depths.to(device), radii.to(device),
+                                                      background.to(device), width, height);
+      (image.sum() + 2 * alpha.sum()).backward();
+      return std::make_tuple(image.detach().cpu(), m.grad().cpu(), c.grad().cpu(), o.grad().cpu());
+    };
+    const auto [a_image, a_m, a_c, a_o] = run(torch::kCPU);
+    const auto [b_image, b_m, b_c, b_o] = run(torch::kCUDA);
+    const double tolerance = dtype == torch::kFloat64 ? 1e-10 : 1e-4;
+    EXPECT_LT((a_image - b_image).abs().max().item<double>(), tolerance);
+    // Per-Gaussian sums arrive in another order on CUDA (atomics): relative to their size.
+    for (const auto& [a, b] : {std::make_pair(a_m, b_m), std::make_pair(a_c, b_c), std::make_pair(a_o, b_o)}) {
+      EXPECT_LT((a - b).abs().max().item<double>(), tolerance * std::max(1.0, a.abs().max().item<double>()));
+    }
   }
 }
 

@@ -1,0 +1,41 @@
+#pragma once
+// 3-D Gaussians to the 2-D Gaussians the rasteriser draws
+// (fskin/ops/gaussian_rasterization.h): EWA splatting's local affine
+// approximation of the pinhole projection (Zwicker et al. 2002; 3DGS, Kerbl et
+// al. 2023, eq. 5): Sigma' = J W Sigma W^T J^T, with W the camera's rotation
+// and J the projection's Jacobian at the Gaussian's mean, plus a screen-space
+// dilation (0.3 pixel^2, as 3DGS) so that no footprint is thinner than about
+// a pixel.
+//
+// Per-Gaussian algebra in LibTorch operations on [N] tensors, differentiable
+// by autograd; the pixel loop, where fusion pays, is the rasteriser's op.
+#include <torch/types.h>
+
+#include "fskin/geometry/pinhole_camera.h"
+
+namespace fskin {
+
+struct ProjectionOptions {
+  double near = 0.01;     // Gaussians nearer than this along the view (camera z) are not drawn
+  double dilation = 0.3;  // added to the 2-D covariance's diagonal, pixels^2
+  double extent = 3.0;    // a footprint's radius in standard deviations of its widest axis
+};
+
+struct ProjectedGaussians {
+  torch::Tensor means2d;  // [N, 2] (u, v) pixels, OpenCV's convention
+  torch::Tensor conics;   // [N, 3] (a, b, c): the inverse 2-D covariance [[a, b], [b, c]]
+  torch::Tensor depths;   // [N] camera z
+  torch::Tensor radii;    // [N] pixels, 0 where not drawn (behind `near`, degenerate); no gradient
+};
+
+// Covariances R diag(s)^2 R^T [N, 3, 3] of Gaussians with scales [N, 3]
+// (standard deviations along their axes) and rotations [N, 4] as quaternions
+// (w, x, y, z), normalised here.
+torch::Tensor gaussian_covariances(const torch::Tensor& scales, const torch::Tensor& rotations);
+
+// Means [N, 3] and covariances [N, 3, 3] in world space, seen by `camera`.
+// float32 or float64, any device; differentiable in means and covariances.
+ProjectedGaussians project_gaussians(const torch::Tensor& means, const torch::Tensor& covariances,
+                                     const PinholeCamera& camera, const ProjectionOptions& options = {});
+
+}  // namespace fskin
