@@ -3,9 +3,11 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
 #include <vector>
 
 #include "fskin/core/error.h"
+#include "fskin/util/atomic_file.h"
 
 namespace fskin {
 
@@ -72,6 +74,26 @@ void overlay_at(json& base, const json& overlay, const std::string& path, const 
 void overlay_document(json& base, const json& overlay, const std::string& context) {
   FSKIN_CHECK(overlay.is_object(), "{}: the config must be a JSON object, got {}", context, overlay.type_name());
   overlay_at(base, overlay, "", context);
+}
+
+void check_document_kinds(const json& document, const FixedKinds& fixed, const std::string& context) {
+  for (const auto& [path, only] : fixed) {
+    std::string dotted = path.substr(1);
+    std::replace(dotted.begin(), dotted.end(), '/', '.');
+    FSKIN_CHECK(document.at(json::json_pointer(path)) == only, "{}: {}: must be \"{}\" (the only kind so far), got {}",
+                context, dotted, only, document.at(json::json_pointer(path)).dump());
+  }
+  const auto& seed = document.at("seed");
+  FSKIN_CHECK(seed.is_number_unsigned() || seed.get<int64_t>() >= 0, "{}: seed: must be >= 0, got {}", context,
+              seed.dump());
+}
+
+json read_json_document(const std::string& path) {
+  try {
+    return json::parse(read_file(path));
+  } catch (const json::exception& e) {
+    fail("{}: {}", path, e.what());
+  }
 }
 
 }  // namespace fskin

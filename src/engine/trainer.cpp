@@ -316,6 +316,7 @@ TrainerSummary Trainer::run(Trainable& trainable) const {
         static_cast<torch::optim::AdamOptions&>(adam.param_groups()[g].options()).lr(base_rates[g] * rate_scale);
       }
       adam.step();
+      trainable.after_step(step, adam);
     }
     ++step;
 

@@ -16,10 +16,10 @@ using json = nlohmann::json;
 namespace {
 
 // The components that come in one kind so far; a document may name them.
-constexpr std::pair<const char*, const char*> kFixedTypes[] = {{"/model/type", "fast-snarf-avatar"},
-                                                              {"/model/field/encoding/type", "hash"},
-                                                              {"/optimizer/type", "adam"},
-                                                              {"/schedule/type", "cosine-decay"}};
+const FixedKinds kFixedKinds = {{"/model/type", "fast-snarf-avatar"},
+                                {"/model/field/encoding/type", "hash"},
+                                {"/optimizer/type", "adam"},
+                                {"/schedule/type", "cosine-decay"}};
 
 // Every option once: its path in the nested document, its key in the flat
 // layout of runs written before it (the hash encoding was one flat object,
@@ -119,7 +119,7 @@ json nested_from_flat(const json& flat, const std::string& context) {
 
 json avatar_config_document(const AvatarTrainOptions& options) {
   json d = json::object();
-  for (const auto& [path, only] : kFixedTypes) d[json::json_pointer(path)] = only;
+  for (const auto& [path, only] : kFixedKinds) d[json::json_pointer(path)] = only;
   for (const auto& field : kFields) d[json::json_pointer(field.path)] = field.read(options);
   return d;
 }
@@ -133,15 +133,7 @@ AvatarTrainOptions avatar_options_from_document(const json& document, const Avat
   if (is_flat(given)) given = nested_from_flat(given, context);
   json d = avatar_config_document(base);
   overlay_document(d, given, context);
-  for (const auto& [path, only] : kFixedTypes) {
-    std::string dotted = std::string(path).substr(1);
-    std::replace(dotted.begin(), dotted.end(), '/', '.');
-    FSKIN_CHECK(d.at(json::json_pointer(path)) == only, "{}: {}: must be \"{}\" (the only kind so far), got {}",
-                context, dotted, only, d.at(json::json_pointer(path)).dump());
-  }
-  const auto& seed = d.at("seed");
-  FSKIN_CHECK(seed.is_number_unsigned() || seed.get<int64_t>() >= 0, "{}: seed: must be >= 0, got {}", context,
-              seed.dump());
+  check_document_kinds(d, kFixedKinds, context);
   AvatarTrainOptions o = base;
   for (const auto& field : kFields) field.write(o, d.at(json::json_pointer(field.path)));
   try {
@@ -162,12 +154,7 @@ json avatar_run_document(const AvatarTrainOptions& o) {
 }
 
 AvatarTrainOptions read_avatar_run_config(const std::string& path, const std::string& run_dir) {
-  json document;
-  try {
-    document = json::parse(read_file(path));
-  } catch (const json::exception& e) {
-    fail("{}: {}", path, e.what());
-  }
+  const json document = read_json_document(path);
   FSKIN_CHECK(document.is_object() && document.contains("format") && document.at("format") == "fskin-avatar-run", "{}: not an avatar run",
               path);
   AvatarTrainOptions base;
@@ -186,13 +173,7 @@ AvatarTrainOptions configure_avatar_options(const AvatarTrainOptions& base, cons
                                             const std::vector<std::string>& settings) {
   AvatarTrainOptions options = base;
   if (!config_path.empty()) {
-    nlohmann::json document;
-    try {
-      document = nlohmann::json::parse(read_file(config_path));
-    } catch (const nlohmann::json::exception& e) {
-      fail("{}: {}", config_path, e.what());
-    }
-    options = avatar_options_from_document(document, options, config_path);
+    options = avatar_options_from_document(read_json_document(config_path), options, config_path);
   }
   for (const auto& setting : settings) set_avatar_option(options, setting);
   return options;

@@ -47,6 +47,17 @@ std::string AvatarEvaluation::to_table() const {
 
 AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const std::string& split_name,
                                  int64_t max_images, bool progress, const FrameInputsOf& inputs_of) {
+  const FrameRenderer render = [&avatar](const FrameInputs& inputs, const PinholeCamera& camera,
+                                         const std::array<double, 3>& background) {
+    auto frame = avatar->pose(inputs.bones);
+    frame.appearance = inputs.appearance;
+    return avatar->render_image(frame, camera, background).first;
+  };
+  return evaluate_renders(render, data, split_name, max_images, progress, inputs_of);
+}
+
+AvatarEvaluation evaluate_renders(const FrameRenderer& render, const ImageDataset& data, const std::string& split_name,
+                                  int64_t max_images, bool progress, const FrameInputsOf& inputs_of) {
   FSKIN_CHECK(max_images >= 0, "avatar eval: max images must be >= 0, got {}", max_images);
   const auto split = data.load_split(split_name);
   FSKIN_CHECK(split.size() > 0, "{}: split '{}' has no images", data.dir(), split_name);
@@ -60,9 +71,7 @@ AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const
   for (const int64_t i : chosen) {
     const auto inputs = inputs_of ? inputs_of(split, i) : FrameInputs{split.bone_transforms[i], {}};
     const auto start = std::chrono::steady_clock::now();
-    auto frame = avatar->pose(inputs.bones);
-    frame.appearance = inputs.appearance;
-    const auto rendered = avatar->render_image(frame, split.cameras[i], data.background()).first;
+    const auto rendered = render(inputs, split.cameras[i], data.background());
     AvatarFrameScore score;
     score.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const auto truth = split.images[i].to(torch::kFloat32) / 255;

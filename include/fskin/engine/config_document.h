@@ -5,6 +5,8 @@
 // that name the key path. (The occupancy models' config has a per-key schema
 // of its own on top of this: training/config_schema.h.)
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -22,5 +24,15 @@ nlohmann::json assignment_overlay(const std::string& assignment, const std::stri
 // number, got "many""). Values are not range-checked here; the component's
 // validate() does that.
 void overlay_document(nlohmann::json& base, const nlohmann::json& overlay, const std::string& context);
+
+// Components that come in one kind so far: (JSON pointer, the one value),
+// e.g. {"/model/type", "gaussian-avatar"}.
+using FixedKinds = std::vector<std::pair<std::string, std::string>>;
+// Checks that a whole document holds each fixed kind and a "seed" >= 0
+// ("context: model.type: must be "x" (the only kind so far), got "y"").
+void check_document_kinds(const nlohmann::json& document, const FixedKinds& fixed, const std::string& context);
+
+// The JSON document in the file at `path`; errors name the file.
+nlohmann::json read_json_document(const std::string& path);
 
 }  // namespace fskin

@@ -76,6 +76,14 @@ class Trainable {
   // Trainer seeds per step. A model that cannot split its batch `count` ways
   // throws fskin::Error saying why.
   virtual StepLosses step_losses(int64_t step, uint64_t seed, const Shard& shard) = 0;
+  // After step `step`'s optimiser update (0-based; not called for a step
+  // without gradients). A model that changes its parameters' sizes during
+  // training (a Gaussian avatar's densification) does it here and resizes
+  // the optimiser's per-parameter state alongside.
+  virtual void after_step(int64_t step, torch::optim::Adam& optimizer) {
+    (void)step;
+    (void)optimizer;
+  }
   // The progress bar's text for one step's logged values (the Trainer adds it/s).
   virtual std::string progress_text(const nlohmann::json& step_values) const = 0;
 

@@ -36,9 +36,18 @@ struct FrameInputs {
 // Empty: the split's own bones and the mean appearance.
 using FrameInputsOf = std::function<FrameInputs(const ImageSplit& split, int64_t image)>;
 
+// A picture [H, W, 3] in [0, 1] of a frame's inputs seen by a camera on a
+// background: what any avatar representation evaluates through.
+using FrameRenderer = std::function<torch::Tensor(const FrameInputs& inputs, const PinholeCamera& camera,
+                                                  const std::array<double, 3>& background)>;
+
 // Renders every image of `split` (at most max_images, evenly spread; 0 = all)
 // on the dataset's background and scores it over the whole image (as the
 // avatar papers do) and over the subject's box.
+AvatarEvaluation evaluate_renders(const FrameRenderer& render, const ImageDataset& data, const std::string& split,
+                                  int64_t max_images = 0, bool progress = true, const FrameInputsOf& inputs_of = {});
+
+// evaluate_renders of a volume avatar.
 AvatarEvaluation evaluate_avatar(Avatar& avatar, const ImageDataset& data, const std::string& split,
                                  int64_t max_images = 0, bool progress = true, const FrameInputsOf& inputs_of = {});
 

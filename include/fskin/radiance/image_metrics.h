@@ -11,5 +11,8 @@ double psnr(const torch::Tensor& image, const torch::Tensor& reference);
 // 1.5), C1 = (0.01)^2, C2 = (0.03)^2, per channel, averaged over the valid
 // window positions and the channels.
 double ssim(const torch::Tensor& image, const torch::Tensor& reference);
+// The same SSIM as a differentiable scalar tensor in the image's dtype and
+// device (a training loss: 1 - SSIM, as 3D Gaussian splatting uses).
+torch::Tensor ssim_tensor(const torch::Tensor& image, const torch::Tensor& reference);
 
 }  // namespace fskin
