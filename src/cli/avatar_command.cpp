@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
+#include <memory>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -23,6 +25,9 @@
 #include "fskin/radiance/avatar_config.h"
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/engine/stop_signal.h"
+#include "fskin/gaussians/gaussian_config.h"
+#include "fskin/gaussians/gaussian_evaluation.h"
+#include "fskin/gaussians/gaussian_training.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/util/progress.h"
 
@@ -56,6 +61,60 @@ std::vector<int64_t> parse_indices(const std::string& text, int64_t count, const
     out.push_back(value);
   }
   FSKIN_CHECK(!out.empty(), "--index: no image given");
+  return out;
+}
+
+// What `avatar render` needs of a trained avatar, of either representation.
+struct RenderableAvatar {
+  std::string data_dir;  // the dataset it was trained on
+  // rgb [H, W, 3] of bones with an appearance code (undefined: the mean appearance).
+  std::function<torch::Tensor(const torch::Tensor& bones, const torch::Tensor& appearance, const PinholeCamera& camera,
+                              const std::array<double, 3>& background)>
+      render;
+  // A split image's bones and code as the run learned them (refined poses, appearance codes).
+  std::function<torch::Tensor(const torch::Tensor& given)> bones_for, appearance_for;
+  // The posed body's centre (a turntable turns about it).
+  std::function<Eigen::Vector3d(const torch::Tensor& bones)> centre;
+};
+
+RenderableAvatar load_renderable(const std::string& run) {
+  RenderableAvatar out;
+  if (is_gaussian_avatar_run(run)) {
+    auto trained = std::make_shared<TrainedGaussianAvatar>(TrainedGaussianAvatar::load(run));
+    out.data_dir = trained->options.data_dir;
+    out.render = [trained](const torch::Tensor& bones, const torch::Tensor&, const PinholeCamera& camera,
+                           const std::array<double, 3>& background) {
+      return trained->render(bones, camera, background).first;
+    };
+    out.bones_for = [](const torch::Tensor& given) { return given; };
+    out.appearance_for = [](const torch::Tensor&) { return torch::Tensor(); };
+    out.centre = [trained](const torch::Tensor& bones) {
+      torch::NoGradGuard no_grad;
+      const auto means = trained->avatar->pose(bones.to(torch::kFloat32)).means;
+      const auto middle = 0.5 * (std::get<0>(means.min(0)) + std::get<0>(means.max(0)));
+      return Eigen::Vector3d(middle[0].item<double>(), middle[1].item<double>(), middle[2].item<double>());
+    };
+    return out;
+  }
+  auto trained = std::make_shared<TrainedAvatar>(TrainedAvatar::load(run));
+  out.data_dir = trained->options.data_dir;
+  // Posing builds the frame's occupancy grid: a turntable poses once.
+  auto posed = std::make_shared<std::pair<torch::Tensor, PosedFrame>>();
+  out.render = [trained, posed](const torch::Tensor& bones, const torch::Tensor& appearance,
+                                const PinholeCamera& camera, const std::array<double, 3>& background) {
+    if (!posed->first.defined() || !torch::equal(posed->first, bones)) *posed = {bones, trained->avatar->pose(bones)};
+    PosedFrame frame = posed->second;
+    frame.appearance = appearance;
+    return trained->avatar->render_image(frame, camera, background).first;
+  };
+  out.bones_for = [trained](const torch::Tensor& given) { return trained->bones_for(given); };
+  out.appearance_for = [trained](const torch::Tensor& given) { return trained->appearance_for(given); };
+  out.centre = [trained](const torch::Tensor& bones) {
+    const auto frame = trained->avatar->pose(bones);
+    const auto& g = frame.grid;
+    return Eigen::Vector3d(0.5 * (g.lower[0] + g.upper[0]), 0.5 * (g.lower[1] + g.upper[1]),
+                           0.5 * (g.lower[2] + g.upper[2]));
+  };
   return out;
 }
 
@@ -107,8 +166,39 @@ void register_avatar(CLI::App& app) {
                                        "model.occupancy_grid.every=50");
   t->add_flag("--resume", train->resume, "continue the run in --out from its newest checkpoint");
   t->add_flag("--quiet", *quiet, "no progress bar");
-  t->callback([train, quiet, config_file, assignments] {
+  auto representation = std::make_shared<std::string>("volume");
+  t->add_option("--representation", *representation,
+                "volume: a radiance field through the Fast-SNARF deformer (Fast-SNARF sec. 7); gaussians: "
+                "articulated 3-D Gaussians posed by forward skinning (--config / --set take the Gaussian "
+                "avatar's document, docs/gaussian_avatars.md)")
+      ->check(CLI::IsMember({"volume", "gaussians"}));
+  t->callback([t, train, quiet, config_file, assignments, representation] {
     StopSignal stop;
+    if (*representation == "gaussians") {
+      // The volume avatar's own options do not apply.
+      for (const char* name : {"--rays", "--images-per-step", "--lr", "--background", "--samples", "--levels",
+                               "--log2-table-size", "--shading", "--appearance-codes", "--learn-skinning",
+                               "--refine-poses"}) {
+        FSKIN_CHECK(t->count(name) == 0, "{} is an option of the volume avatar, not of --representation gaussians",
+                    name);
+      }
+      GaussianTrainOptions base;
+      base.data_dir = train->data_dir;
+      base.out_dir = train->out_dir;
+      base.seed = train->seed;
+      if (t->count("--steps") > 0) base.steps = train->steps;
+      if (t->count("--checkpoint-every") > 0) base.checkpoint_every = train->checkpoint_every;
+      GaussianTrainOptions options = configure_gaussian_options(base, *config_file, *assignments);
+      options.resume = train->resume;
+      options.progress = !*quiet;
+      options.stop = &stop;
+      const auto summary = train_gaussian_avatar(options);
+      std::printf("%s: steps %lld -> %lld in %.1f s; %lld Gaussians; last loss %.5f, image PSNR %.2f dB%s\n",
+                  options.out_dir.c_str(), static_cast<long long>(summary.first_step),
+                  static_cast<long long>(summary.last_step), summary.seconds, static_cast<long long>(summary.gaussians),
+                  summary.final_loss, summary.final_psnr, summary.stopped ? " (stopped; --resume continues)" : "");
+      return;
+    }
     AvatarTrainOptions options = configure_avatar_options(*train, *config_file, *assignments);
     options.progress = !*quiet;
     options.stop = &stop;
@@ -144,8 +234,12 @@ void register_avatar(CLI::App& app) {
   e->callback([eval] {
     PoseFittingOptions fitting;
     fitting.steps = eval->fit_poses;
+    const bool gaussians = is_gaussian_avatar_run(eval->run);
+    FSKIN_CHECK(!gaussians || eval->fit_poses == 0, "{}: --fit-poses is not available for Gaussian avatars yet",
+                eval->run);
     const auto scores =
-        evaluate_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet, fitting);
+        gaussians ? evaluate_gaussian_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet)
+                  : evaluate_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet, fitting);
     std::printf("%s", scores.to_table().c_str());
     const std::string json =
         eval->json.empty() ? (fs::path(eval->run) / fmt::format("eval_{}.json", eval->split)).string() : eval->json;
@@ -207,8 +301,8 @@ void register_avatar(CLI::App& app) {
   r->add_option("--camera-index", render->camera_index, "camera of --cameras")->check(CLI::NonNegativeNumber);
   r->add_option("--out", render->out, "PNG file (or directory with --turntable)")->required();
   r->callback([render] {
-    auto trained = TrainedAvatar::load(render->run);
-    const ImageDataset data(render->data.empty() ? trained.options.data_dir : render->data);
+    const auto avatar = load_renderable(render->run);
+    const ImageDataset data(render->data.empty() ? avatar.data_dir : render->data);
     const auto split = data.load_split(render->split);
     const auto indices = parse_indices(render->index, split.size(), render->split);
     // The split's poses as the run learned them: a training frame's refined
@@ -216,8 +310,8 @@ void register_avatar(CLI::App& app) {
     auto bones = split.bone_transforms.clone();
     std::vector<torch::Tensor> appearance(static_cast<size_t>(split.size()));
     for (const int64_t i : indices) {
-      bones[i] = trained.bones_for(split.bone_transforms[i]);
-      appearance[i] = trained.appearance_for(split.bone_transforms[i]);
+      bones[i] = avatar.bones_for(split.bone_transforms[i]);
+      appearance[i] = avatar.appearance_for(split.bone_transforms[i]);
     }
     auto cameras = split.cameras;
     FSKIN_CHECK(render->poses.empty() || render->bones.empty(), "give --poses or --bones, not both");
@@ -257,8 +351,7 @@ void register_avatar(CLI::App& app) {
       const auto& camera = cameras[indices[0]];
       ProgressBar bar("rendering " + given_path, given_bones.size(0), true);
       for (int64_t k = 0; k < given_bones.size(0); ++k) {
-        const auto frame = trained.avatar->pose(given_bones[k]);
-        const auto rgb = trained.avatar->render_image(frame, camera, data.background()).first;
+        const auto rgb = avatar.render(given_bones[k], torch::Tensor(), camera, data.background());
         write_png((fs::path(render->out) / fmt::format("frame_{:04d}.png", k)).string(), to_image(rgb));
         bar.advance(1);
       }
@@ -268,16 +361,12 @@ void register_avatar(CLI::App& app) {
     }
     if (render->turntable > 0) {
       const int64_t i = indices[0];
-      auto frame = trained.avatar->pose(bones[i]);
-      frame.appearance = appearance[i];
       create_output_directory(render->out);
-      // Turn the camera about the vertical axis through the posed box's centre.
-      const auto& g = frame.grid;
-      const Eigen::Vector3d centre(0.5 * (g.lower[0] + g.upper[0]), 0.5 * (g.lower[1] + g.upper[1]),
-                                   0.5 * (g.lower[2] + g.upper[2]));
+      // Turn the camera about the vertical axis through the posed body's centre.
+      const Eigen::Vector3d centre = avatar.centre(bones[i]);
       for (int k = 0; k < render->turntable; ++k) {
         const auto camera = cameras[i].orbited(2 * M_PI * k / render->turntable, centre);
-        const auto rgb = trained.avatar->render_image(frame, camera, data.background()).first;
+        const auto rgb = avatar.render(bones[i], appearance[i], camera, data.background());
         write_png((fs::path(render->out) / fmt::format("frame_{:04d}.png", k)).string(), to_image(rgb));
       }
       std::printf("wrote %d frames to %s\n", render->turntable, render->out.c_str());
@@ -289,9 +378,7 @@ void register_avatar(CLI::App& app) {
     for (size_t row = 0; row < indices.size(); ++row) {
       const int64_t i = indices[row];
       FSKIN_CHECK(cameras[i].width == W && cameras[i].height == H, "images of one sheet must have one size");
-      auto frame = trained.avatar->pose(bones[i]);
-      frame.appearance = appearance[i];
-      const auto rgb = trained.avatar->render_image(frame, cameras[i], data.background()).first;
+      const auto rgb = avatar.render(bones[i], appearance[i], cameras[i], data.background());
       if (render->compare) sheet.paste(to_image(split.images[i].to(torch::kFloat32) / 255), 0, static_cast<int>(row) * H);
       sheet.paste(to_image(rgb), (columns - 1) * W, static_cast<int>(row) * H);
     }

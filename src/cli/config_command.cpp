@@ -7,6 +7,7 @@
 #include "cli/commands.h"
 #include "fskin/core/error.h"
 #include "fskin/engine/run_directory.h"
+#include "fskin/gaussians/gaussian_config.h"
 #include "fskin/radiance/avatar_config.h"
 #include "fskin/training/train_config.h"
 #include "fskin/util/atomic_file.h"
@@ -41,8 +42,13 @@ void register_config(CLI::App& app) {
         std::printf("%s\n", nlohmann::json::parse(TrainConfig::load_run(run.config_file()).to_json()).dump(2).c_str());
         return;
       }
-      FSKIN_CHECK(fs::exists(run.avatar_config_file()), "{}: not a run directory (no config.json or avatar.json)",
-                  opt->target);
+      if (fs::exists(run.gaussian_avatar_config_file())) {
+        const auto options = read_gaussian_run_config(run.gaussian_avatar_config_file(), run.path());
+        std::printf("%s\n", gaussian_run_document(options).dump(2).c_str());
+        return;
+      }
+      FSKIN_CHECK(fs::exists(run.avatar_config_file()),
+                  "{}: not a run directory (no config.json, avatar.json or gaussian_avatar.json)", opt->target);
       // Through the loader too: an avatar run written flat comes out nested.
       const auto options = read_avatar_run_config(run.avatar_config_file(), run.path());
       std::printf("%s\n", avatar_run_document(options).dump(2).c_str());

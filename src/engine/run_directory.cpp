@@ -18,6 +18,7 @@ std::string RunDirectory::file(const char* name) const { return (fs::path(path_)
 
 std::string RunDirectory::config_file() const { return file("config.json"); }
 std::string RunDirectory::avatar_config_file() const { return file("avatar.json"); }
+std::string RunDirectory::gaussian_avatar_config_file() const { return file("gaussian_avatar.json"); }
 std::string RunDirectory::character_file() const { return file("canonical.npz"); }
 std::string RunDirectory::log_file() const { return file("log.jsonl"); }
 std::string RunDirectory::validation_log_file() const { return file("validation.jsonl"); }

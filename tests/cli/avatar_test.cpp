@@ -176,6 +176,41 @@ TEST_F(AvatarCommands, RenderTakesBoneTransformsAndAnimations) {
   EXPECT_NE(log().find("not both"), std::string::npos) << log();
 }
 
+// The same commands on an avatar of articulated Gaussians (docs/gaussian_avatars.md).
+TEST_F(AvatarCommands, GaussianAvatarsTrainEvaluateAndRender) {
+  const std::string run = path("gaussians");
+  ASSERT_EQ(run_cli("avatar train --data " + path("images") + " --out " + run +
+                    " --representation gaussians --steps 30 --quiet --set model.gaussians.initial=800 --set "
+                    "density.start=10 --set density.every=10"),
+            0)
+      << log();
+  EXPECT_NE(log().find("Gaussians; last loss"), std::string::npos) << log();
+  const auto document = nlohmann::json::parse(read_file(run + "/gaussian_avatar.json"));
+  EXPECT_EQ(document.at("model").at("type"), "gaussian-avatar");
+  EXPECT_EQ(document.at("density").at("every"), 10);
+  ASSERT_EQ(run_cli("config show " + run), 0) << log();
+  EXPECT_NE(log().find("\"gaussian-avatar\""), std::string::npos) << log();
+  ASSERT_EQ(run_cli("avatar eval " + run + " --split novel_pose --quiet"), 0) << log();
+  const auto scores = nlohmann::json::parse(read_file(run + "/eval_novel_pose.json"));
+  EXPECT_GT(scores.at("mean_psnr").get<double>(), 10.0);
+  ASSERT_EQ(run_cli("avatar render " + run + " --split train --index 0,1 --compare --out " + path("gs.png")), 0)
+      << log();
+  EXPECT_EQ(read_png(path("gs.png")).width, 64);
+  ASSERT_EQ(run_cli("avatar render " + run + " --turntable 2 --out " + path("gs_turn")), 0) << log();
+  EXPECT_TRUE(fs::exists(path("gs_turn/frame_0001.png")));
+  // The volume avatar's options are not the Gaussian avatar's; a volume run is not continued as one.
+  ASSERT_NE(run_cli("avatar train --data " + path("images") + " --out " + path("gs2") +
+                    " --representation gaussians --rays 64"),
+            0);
+  EXPECT_NE(log().find("--rays is an option of the volume avatar"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar train --data " + path("images") + " --out " + path("run") +
+                    " --representation gaussians --resume --steps 2"),
+            0);
+  EXPECT_NE(log().find("holds a volume avatar run"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar eval " + run + " --fit-poses 3"), 0);
+  EXPECT_NE(log().find("--fit-poses is not available for Gaussian avatars"), std::string::npos) << log();
+}
+
 // The export itself is checked on a trained avatar (AvatarTraining in
 // tests/radiance); the fixture's 20-step avatar has no surface yet.
 TEST_F(AvatarCommands, ExportNamesWhatIsWrong) {

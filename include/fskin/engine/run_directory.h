@@ -5,6 +5,7 @@
 //   .lock                  the writer's advisory lock (engine/run_lock.h)
 //   config.json            an occupancy model's TrainConfig (training/train_config.h)
 //   avatar.json            an avatar's options (radiance/avatar_training.h)
+//   gaussian_avatar.json   a Gaussian avatar's options (gaussians/gaussian_training.h)
 //   canonical.npz          the avatar's character (its rig and canonical mesh)
 //   log.jsonl              one JSON object per logged step
 //   validation.jsonl       one JSON object per validation
@@ -26,6 +27,7 @@ class RunDirectory {
 
   std::string config_file() const;
   std::string avatar_config_file() const;
+  std::string gaussian_avatar_config_file() const;
   std::string character_file() const;
   std::string log_file() const;
   std::string validation_log_file() const;

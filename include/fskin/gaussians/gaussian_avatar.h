@@ -1,0 +1,104 @@
+#pragma once
+// An animatable avatar of articulated 3-D Gaussians (issue 37; the idea of
+// 3DGS-Avatar, GART and GauHuman, for any skeleton): canonical Gaussians
+// (mean, scale, rotation, opacity, colour as spherical harmonics) posed by
+// forward linear blend skinning, no root finding. A Gaussian's weights are
+// the character's skinning weights diffused into a voxel grid
+// (fields/preset_skinning_field.h, as the volume avatar uses) read at its
+// canonical mean, so a Gaussian that moves or is cloned takes the weights of
+// where it is. With T = sum_j w_j B_j (SNARF eq. 4) and A its 3 x 3 part:
+//   mean' = T mean,  Sigma' = A Sigma A^T
+// (the exact image of the Gaussian under the affine map T; A is a rotation
+// where one bone dominates). Spherical harmonics are evaluated in canonical
+// space, at the view direction mapped back by A^T.
+#include <torch/torch.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+
+#include "fskin/fields/voxel_skinning_field.h"
+#include "fskin/geometry/pinhole_camera.h"
+#include "fskin/skeleton/rigged_mesh.h"
+
+namespace fskin {
+
+struct GaussianAvatarOptions {
+  int64_t initial_gaussians = 20000;  // area-uniform on the canonical mesh
+  int64_t sh_degree = 1;              // 0-3
+  double initial_opacity = 0.5;
+  int64_t skinning_grid_resolution = 64;  // voxels along the canonical box's longest side
+  void validate() const;
+};
+
+// Gaussians in a frame's posed space.
+struct PosedGaussians {
+  torch::Tensor means;        // [N, 3]
+  torch::Tensor covariances;  // [N, 3, 3]
+  torch::Tensor linear;       // [N, 3, 3] A, the blended transforms' 3 x 3 part
+  torch::Tensor opacities;    // [N] in (0, 1)
+};
+
+struct GaussianRender {
+  torch::Tensor image;    // [H, W, 3]
+  torch::Tensor alpha;    // [H, W]
+  torch::Tensor means2d;  // [N, 2] the projected means (density control reads their gradient)
+  torch::Tensor radii;    // [N] pixels, 0 where not drawn
+};
+
+class GaussianAvatarImpl : public torch::nn::Module {
+ public:
+  // Gaussians sampled on character's canonical mesh (deterministic in `seed`):
+  // isotropic, as wide as the samples' mean spacing, grey.
+  GaussianAvatarImpl(const RiggedMesh& character, GaussianAvatarOptions options, uint64_t seed);
+
+  int64_t size() const { return means_.size(0); }
+  int64_t sh_degree() const { return options_.sh_degree; }
+  const GaussianAvatarOptions& options() const { return options_; }
+
+  // Canonical parameters (leaf tensors, registered with the module):
+  // means [N, 3]; log_scales [N, 3] (log standard deviations); rotations
+  // [N, 4] (quaternions (w, x, y, z), unnormalised); opacity_logits [N];
+  // spherical harmonics (spherical_harmonics.h), degree 0 and the rest apart
+  // since they train at different rates (3DGS's features_dc / features_rest):
+  // sh_dc [N, 1, 3], sh_rest [N, (degree + 1)^2 - 1, 3].
+  torch::Tensor& means() { return means_; }
+  torch::Tensor& log_scales() { return log_scales_; }
+  torch::Tensor& rotations() { return rotations_; }
+  torch::Tensor& opacity_logits() { return opacity_logits_; }
+  torch::Tensor& sh_dc() { return sh_dc_; }
+  torch::Tensor& sh_rest() { return sh_rest_; }
+  const torch::Tensor& means() const { return means_; }
+  const torch::Tensor& log_scales() const { return log_scales_; }
+  const torch::Tensor& rotations() const { return rotations_; }
+  const torch::Tensor& opacity_logits() const { return opacity_logits_; }
+  const torch::Tensor& sh_dc() const { return sh_dc_; }
+  const torch::Tensor& sh_rest() const { return sh_rest_; }
+  torch::Tensor sh() const;  // both, [N, (degree + 1)^2, 3]
+
+  // Skinning weights [N, J] at the canonical means.
+  torch::Tensor skinning_weights();
+  // The Gaussians in the frame of bones [J, 4, 4] (canonical -> posed).
+  PosedGaussians pose(const torch::Tensor& bones);
+  // A picture of the posed Gaussians [H, W, 3] and its alpha over a uniform
+  // background; differentiable in the parameters (and in bones when they
+  // require gradients).
+  GaussianRender render(const torch::Tensor& bones, const PinholeCamera& camera,
+                        const std::array<double, 3>& background);
+
+  // Replaces every per-Gaussian parameter by a gathered, extended or filtered
+  // version (densification and pruning); the tensors must agree in N. The
+  // parameters keep their identity (optimisers keep holding them); graphs
+  // built on the old ones must be released before the next backward (their
+  // gradient accumulators expect the old sizes).
+  void replace_gaussians(torch::Tensor means, torch::Tensor log_scales, torch::Tensor rotations,
+                         torch::Tensor opacity_logits, torch::Tensor sh_dc, torch::Tensor sh_rest);
+
+ private:
+  GaussianAvatarOptions options_;
+  std::shared_ptr<FrozenSkinningField> skinning_;
+  torch::Tensor means_, log_scales_, rotations_, opacity_logits_, sh_dc_, sh_rest_;
+};
+TORCH_MODULE(GaussianAvatar);
+
+}  // namespace fskin

@@ -1,0 +1,80 @@
+#pragma once
+// Training a Gaussian avatar (gaussian_avatar.h) on an image dataset
+// (radiance/image_dataset.h), run by the engine's Trainer (checkpoints,
+// Ctrl-C, --resume, progress, log.jsonl): per step one training image,
+// rendered on the dataset's background (the subject's box of it,
+// crop_margin); the loss of 3D Gaussian
+// splatting, (1 - l) L1 + l (1 - SSIM) on colour (l = ssim_weight), plus
+// mask_weight x L1 between the picture's alpha and the mask; Adam with one
+// learning rate per kind of parameter (3DGS's, the means' in units of the
+// character's size), decayed by the Trainer's cosine schedule; adaptive
+// density control (density_control.h) after the optimiser's steps.
+//
+// The run directory holds gaussian_avatar.json (gaussian_config.h),
+// canonical.npz (the character) and the engine's files.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <utility>
+
+#include "fskin/engine/stop_signal.h"
+#include "fskin/gaussians/density_control.h"
+#include "fskin/gaussians/gaussian_avatar.h"
+
+namespace fskin {
+
+struct GaussianTrainOptions {
+  std::string data_dir, out_dir;
+  GaussianAvatarOptions avatar;
+  DensityControlOptions density;
+  int64_t steps = 3000;
+  // Adam's learning rates (3DGS's): the means' times the character's size.
+  double means_learning_rate = 1.6e-4;
+  double scales_learning_rate = 5e-3;
+  double rotations_learning_rate = 1e-3;
+  double opacity_learning_rate = 5e-2;
+  double sh_learning_rate = 2.5e-3;  // degree 0; higher degrees at a 20th
+  // Cosine decay of every rate to decay_factor x over the last decay_fraction of the steps.
+  double decay_fraction = 1.0, decay_factor = 0.1;
+  double ssim_weight = 0.2;
+  double mask_weight = 0.1;
+  // Each step renders only the box of its image's mask grown by this fraction
+  // of its size (mask_box), the camera cut to it; the losses stay those of the
+  // whole picture (sums over the box divided by the whole picture's pixels and
+  // SSIM windows: the background outside is exact and costs nothing). < 0:
+  // whole pictures.
+  double crop_margin = 0.2;
+  int64_t checkpoint_every = 500;
+  int64_t log_every = 50;
+  uint64_t seed = 0;
+  bool resume = false;
+  bool progress = true;
+  const StopSignal* stop = nullptr;  // the CLI's Ctrl-C handler
+  void validate() const;
+};
+
+struct GaussianTrainSummary {
+  int64_t first_step = 0, last_step = 0;
+  double seconds = 0;
+  double final_loss = 0, final_psnr = 0;  // of the last logged step
+  int64_t gaussians = 0;                  // at the end
+  bool stopped = false;
+};
+
+GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& options);
+
+// Whether a run directory holds a Gaussian avatar (its gaussian_avatar.json).
+bool is_gaussian_avatar_run(const std::string& run_dir);
+
+// A trained Gaussian avatar loaded from its run (newest intact checkpoint).
+struct TrainedGaussianAvatar {
+  GaussianAvatar avatar{nullptr};
+  GaussianTrainOptions options;
+  int64_t step = 0;
+  static TrainedGaussianAvatar load(const std::string& run_dir);
+  // (rgb [H, W, 3] in [0, 1], alpha [H, W]) of bones [J, 4, 4] seen by camera, without gradients.
+  std::pair<torch::Tensor, torch::Tensor> render(const torch::Tensor& bones, const PinholeCamera& camera,
+                                                 const std::array<double, 3>& background);
+};
+
+}  // namespace fskin

@@ -1,0 +1,117 @@
+#include "fskin/gaussians/gaussian_avatar.h"
+
+#include <cmath>
+
+#include "fskin/core/error.h"
+#include "fskin/core/tensor_checks.h"
+#include "fskin/data/point_sampling.h"
+#include "fskin/data/random.h"
+#include "fskin/fields/preset_skinning_field.h"
+#include "fskin/gaussians/gaussian_projection.h"
+#include "fskin/gaussians/spherical_harmonics.h"
+#include "fskin/ops/gaussian_rasterization.h"
+#include "fskin/skeleton/lbs.h"
+
+namespace fskin {
+
+void GaussianAvatarOptions::validate() const {
+  FSKIN_CHECK(initial_gaussians >= 1 && initial_gaussians <= 10'000'000,
+              "gaussian avatar: initial_gaussians must be within 1..10000000, got {}", initial_gaussians);
+  FSKIN_CHECK(sh_degree >= 0 && sh_degree <= 3, "gaussian avatar: sh_degree must be 0 to 3, got {}", sh_degree);
+  FSKIN_CHECK(initial_opacity > 0 && initial_opacity < 1,
+              "gaussian avatar: initial_opacity must be within (0, 1), got {}", initial_opacity);
+  FSKIN_CHECK(skinning_grid_resolution >= 4 && skinning_grid_resolution <= 512,
+              "gaussian avatar: skinning grid resolution must be within 4..512, got {}", skinning_grid_resolution);
+}
+
+GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvatarOptions options, uint64_t seed)
+    : options_(std::move(options)) {
+  options_.validate();
+  character.validate("gaussian avatar: character");
+  const auto vertices = character.mesh.vertices.to(torch::kFloat32);
+  skinning_ = diffuse_weights_to_grid(
+      vertices, character.weights.to(torch::kFloat32),
+      VoxelBox::fit(vertices.to(torch::kFloat64), options_.skinning_grid_resolution));
+  Rng rng(seed);
+  const int64_t n = options_.initial_gaussians;
+  const auto points = sample_surface(character.mesh, n, rng).to(torch::kFloat32);
+  // Faces' total area over N: each sample's share of the surface, whose square root is their spacing.
+  const auto v = character.mesh.vertices.to(torch::kFloat64);
+  const auto f = character.mesh.faces;
+  const auto e1 = v.index_select(0, f.select(1, 1)) - v.index_select(0, f.select(1, 0));
+  const auto e2 = v.index_select(0, f.select(1, 2)) - v.index_select(0, f.select(1, 0));
+  const double area = 0.5 * torch::cross(e1, e2, 1).norm(2, 1).sum().item<double>();
+  const double spacing = std::sqrt(std::max(area, 1e-12) / static_cast<double>(n));
+  means_ = register_parameter("means", points);
+  log_scales_ = register_parameter("log_scales", torch::full({n, 3}, static_cast<float>(std::log(spacing))));
+  rotations_ = register_parameter("rotations", torch::tensor({1.0f, 0.0f, 0.0f, 0.0f}).repeat({n, 1}));
+  const double logit = std::log(options_.initial_opacity / (1 - options_.initial_opacity));
+  opacity_logits_ = register_parameter("opacity_logits", torch::full({n}, static_cast<float>(logit)));
+  sh_dc_ = register_parameter("sh_dc", torch::zeros({n, 1, 3}));
+  sh_rest_ = register_parameter("sh_rest",
+                                torch::zeros({n, spherical_harmonics_coefficients(options_.sh_degree) - 1, 3}));
+}
+
+torch::Tensor GaussianAvatarImpl::sh() const { return torch::cat({sh_dc_, sh_rest_}, 1); }
+
+torch::Tensor GaussianAvatarImpl::skinning_weights() { return skinning_->weights(means_); }
+
+PosedGaussians GaussianAvatarImpl::pose(const torch::Tensor& bones) {
+  expect_shape(bones, {skinning_->num_bones(), 4, 4}, "gaussian avatar: bone transforms");
+  const auto transforms = blend_transforms(skinning_weights(), bones.to(means_.options()).unsqueeze(0))[0];
+  PosedGaussians posed;
+  posed.linear = transforms.narrow(1, 0, 3).narrow(2, 0, 3);
+  posed.means = transform_points(transforms, means_);
+  const auto canonical = gaussian_covariances(torch::exp(log_scales_), rotations_);
+  posed.covariances = torch::matmul(torch::matmul(posed.linear, canonical), posed.linear.transpose(1, 2));
+  posed.opacities = torch::sigmoid(opacity_logits_);
+  return posed;
+}
+
+GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const PinholeCamera& camera,
+                                          const std::array<double, 3>& background) {
+  const auto posed = pose(bones);
+  const auto projected = project_gaussians(posed.means, posed.covariances, camera);
+  // View directions in canonical space: A^T (mean' - eye), normalised.
+  const Eigen::Vector3d eye = camera.centre();
+  const auto eye_tensor = torch::tensor({eye.x(), eye.y(), eye.z()}, torch::kFloat64).to(means_.options());
+  const auto view = torch::matmul(posed.linear.transpose(1, 2), (posed.means - eye_tensor).unsqueeze(-1)).squeeze(-1);
+  const auto directions = view / view.norm(2, 1, true).clamp_min(1e-12);
+  const auto colors = spherical_harmonics_color(sh(), directions);
+  const auto bg = torch::tensor({background[0], background[1], background[2]}, means_.options());
+  GaussianRender out;
+  std::tie(out.image, out.alpha) =
+      rasterize_gaussians(projected.means2d, projected.conics, colors, posed.opacities, projected.depths,
+                          projected.radii, bg, camera.width, camera.height);
+  out.means2d = projected.means2d;
+  out.radii = projected.radii;
+  return out;
+}
+
+void GaussianAvatarImpl::replace_gaussians(torch::Tensor means, torch::Tensor log_scales, torch::Tensor rotations,
+                                           torch::Tensor opacity_logits, torch::Tensor sh_dc,
+                                           torch::Tensor sh_rest) {
+  const int64_t n = means.size(0);
+  expect_shape(means, {n, 3}, "gaussian avatar: means");
+  expect_shape(log_scales, {n, 3}, "gaussian avatar: log_scales");
+  expect_shape(rotations, {n, 4}, "gaussian avatar: rotations");
+  expect_shape(opacity_logits, {n}, "gaussian avatar: opacity_logits");
+  expect_shape(sh_dc, {n, 1, 3}, "gaussian avatar: sh_dc");
+  expect_shape(sh_rest, {n, sh_rest_.size(1), 3}, "gaussian avatar: sh_rest");
+  // set_data keeps each parameter's identity (the module's registry and the
+  // optimiser's parameter lists still hold it) while its size changes; the
+  // optimiser's per-parameter state is the caller's to resize. Gradients of
+  // the old size are dropped.
+  torch::NoGradGuard no_grad;
+  means_.set_data(means.detach().clone());
+  log_scales_.set_data(log_scales.detach().clone());
+  rotations_.set_data(rotations.detach().clone());
+  opacity_logits_.set_data(opacity_logits.detach().clone());
+  sh_dc_.set_data(sh_dc.detach().clone());
+  sh_rest_.set_data(sh_rest.detach().clone());
+  for (auto* p : {&means_, &log_scales_, &rotations_, &opacity_logits_, &sh_dc_, &sh_rest_}) {
+    p->mutable_grad() = torch::Tensor();
+  }
+}
+
+}  // namespace fskin

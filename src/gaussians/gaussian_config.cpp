@@ -1,0 +1,128 @@
+#include "fskin/gaussians/gaussian_config.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <utility>
+
+#include "fskin/core/error.h"
+#include "fskin/engine/config_document.h"
+#include "fskin/util/atomic_file.h"
+#include "fskin/version.h"
+
+namespace fskin {
+
+using json = nlohmann::json;
+
+namespace {
+
+constexpr const char* kRunFormat = "fskin-gaussian-avatar-run";
+
+const FixedKinds kFixedKinds = {
+    {"/model/type", "gaussian-avatar"}, {"/optimizer/type", "adam"}, {"/schedule/type", "cosine-decay"}};
+
+// Every option once: its path in the document and the member it reads and writes.
+struct Field {
+  const char* path;
+  json (*read)(const GaussianTrainOptions&);
+  void (*write)(GaussianTrainOptions&, const json&);
+};
+
+#define FSKIN_GAUSSIAN_FIELD(path, member)                                     \
+  Field {                                                                      \
+    path, [](const GaussianTrainOptions& o) -> json { return o.member; },      \
+        [](GaussianTrainOptions& o, const json& v) { v.get_to(o.member); }     \
+  }
+
+const Field kFields[] = {
+    FSKIN_GAUSSIAN_FIELD("/model/gaussians/initial", avatar.initial_gaussians),
+    FSKIN_GAUSSIAN_FIELD("/model/gaussians/sh_degree", avatar.sh_degree),
+    FSKIN_GAUSSIAN_FIELD("/model/gaussians/initial_opacity", avatar.initial_opacity),
+    FSKIN_GAUSSIAN_FIELD("/model/skinning/grid_resolution", avatar.skinning_grid_resolution),
+    FSKIN_GAUSSIAN_FIELD("/density/start", density.start),
+    FSKIN_GAUSSIAN_FIELD("/density/stop_fraction", density.stop_fraction),
+    FSKIN_GAUSSIAN_FIELD("/density/every", density.every),
+    FSKIN_GAUSSIAN_FIELD("/density/gradient_threshold", density.gradient_threshold),
+    FSKIN_GAUSSIAN_FIELD("/density/dense_fraction", density.dense_fraction),
+    FSKIN_GAUSSIAN_FIELD("/density/min_opacity", density.min_opacity),
+    FSKIN_GAUSSIAN_FIELD("/density/max_scale_fraction", density.max_scale_fraction),
+    FSKIN_GAUSSIAN_FIELD("/density/opacity_reset_every", density.opacity_reset_every),
+    FSKIN_GAUSSIAN_FIELD("/density/max_gaussians", density.max_gaussians),
+    FSKIN_GAUSSIAN_FIELD("/losses/ssim/weight", ssim_weight),
+    FSKIN_GAUSSIAN_FIELD("/losses/mask/weight", mask_weight),
+    FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/means", means_learning_rate),
+    FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/scales", scales_learning_rate),
+    FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/rotations", rotations_learning_rate),
+    FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/opacity", opacity_learning_rate),
+    FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/sh", sh_learning_rate),
+    FSKIN_GAUSSIAN_FIELD("/schedule/decay_fraction", decay_fraction),
+    FSKIN_GAUSSIAN_FIELD("/schedule/decay_factor", decay_factor),
+    FSKIN_GAUSSIAN_FIELD("/data/path", data_dir),
+    FSKIN_GAUSSIAN_FIELD("/data/crop_margin", crop_margin),
+    FSKIN_GAUSSIAN_FIELD("/run/checkpoint_every", checkpoint_every),
+    FSKIN_GAUSSIAN_FIELD("/run/log_every", log_every),
+    FSKIN_GAUSSIAN_FIELD("/seed", seed),
+    FSKIN_GAUSSIAN_FIELD("/steps", steps),
+};
+#undef FSKIN_GAUSSIAN_FIELD
+
+}  // namespace
+
+json gaussian_config_document(const GaussianTrainOptions& options) {
+  json d = json::object();
+  for (const auto& [path, only] : kFixedKinds) d[json::json_pointer(path)] = only;
+  for (const auto& field : kFields) d[json::json_pointer(field.path)] = field.read(options);
+  return d;
+}
+
+GaussianTrainOptions gaussian_options_from_document(const json& document, const GaussianTrainOptions& base,
+                                                    const std::string& context) {
+  FSKIN_CHECK(document.is_object(), "{}: the config must be a JSON object, got {}", context, document.type_name());
+  json given = document;
+  given.erase("format");
+  given.erase("fskin_version");
+  json d = gaussian_config_document(base);
+  overlay_document(d, given, context);
+  check_document_kinds(d, kFixedKinds, context);
+  GaussianTrainOptions o = base;
+  for (const auto& field : kFields) field.write(o, d.at(json::json_pointer(field.path)));
+  try {
+    o.validate();
+  } catch (const Error& error) {
+    fail("{}: {}", context, error.what());
+  }
+  return o;
+}
+
+json gaussian_run_document(const GaussianTrainOptions& o) {
+  GaussianTrainOptions recorded = o;
+  recorded.data_dir = std::filesystem::absolute(o.data_dir).string();
+  auto document = gaussian_config_document(recorded);
+  document["format"] = kRunFormat;
+  document["fskin_version"] = FSKIN_VERSION;
+  return document;
+}
+
+GaussianTrainOptions read_gaussian_run_config(const std::string& path, const std::string& run_dir) {
+  const json document = read_json_document(path);
+  FSKIN_CHECK(document.is_object() && document.contains("format") && document.at("format") == kRunFormat,
+              "{}: not a Gaussian avatar run", path);
+  GaussianTrainOptions base;
+  base.out_dir = run_dir;
+  base.data_dir = "(the run's dataset)";  // every run file names its own
+  return gaussian_options_from_document(document, base, path);
+}
+
+GaussianTrainOptions configure_gaussian_options(const GaussianTrainOptions& base, const std::string& config_path,
+                                                const std::vector<std::string>& settings) {
+  GaussianTrainOptions options = base;
+  if (!config_path.empty()) {
+    options = gaussian_options_from_document(read_json_document(config_path), options, config_path);
+  }
+  for (const auto& setting : settings) {
+    const std::string context = "--set " + setting;
+    options = gaussian_options_from_document(assignment_overlay(setting, "--set"), options, context);
+  }
+  return options;
+}
+
+}  // namespace fskin

@@ -1,0 +1,279 @@
+#include "fskin/gaussians/gaussian_training.h"
+
+#include <torch/torch.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <optional>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "fskin/core/error.h"
+#include "fskin/engine/run_directory.h"
+#include "fskin/engine/run_lock.h"
+#include "fskin/engine/trainer.h"
+#include "fskin/geometry/character_size.h"
+#include "fskin/gaussians/gaussian_config.h"
+#include "fskin/radiance/avatar_character.h"
+#include "fskin/radiance/image_dataset.h"
+#include "fskin/radiance/image_metrics.h"
+#include "fskin/util/atomic_file.h"
+
+namespace fskin {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kGaussianArchiveKey = "gaussian_avatar";
+
+std::string run_file(const std::string& run_dir) { return RunDirectory(run_dir).gaussian_avatar_config_file(); }
+
+}  // namespace
+
+void GaussianTrainOptions::validate() const {
+  avatar.validate();
+  density.validate();
+  FSKIN_CHECK(steps >= 0, "gaussian avatar train: steps must be >= 0, got {}", steps);
+  for (const double rate : {means_learning_rate, scales_learning_rate, rotations_learning_rate, opacity_learning_rate,
+                            sh_learning_rate}) {
+    FSKIN_CHECK(std::isfinite(rate) && rate > 0 && rate <= 1,
+                "gaussian avatar train: learning rates must be in (0, 1], got {}", rate);
+  }
+  FSKIN_CHECK(decay_fraction >= 0 && decay_fraction <= 1 && decay_factor > 0 && decay_factor <= 1,
+              "gaussian avatar train: decay fraction must be within [0, 1] and decay factor within (0, 1]");
+  FSKIN_CHECK(ssim_weight >= 0 && ssim_weight <= 1, "gaussian avatar train: the SSIM weight must be within [0, 1]");
+  FSKIN_CHECK(std::isfinite(mask_weight) && mask_weight >= 0, "gaussian avatar train: the mask weight must be >= 0");
+  FSKIN_CHECK(std::isfinite(crop_margin) && crop_margin <= 10,
+              "gaussian avatar train: the crop margin must be <= 10 (< 0: whole pictures), got {}", crop_margin);
+  FSKIN_CHECK(checkpoint_every >= 1 && log_every >= 1,
+              "gaussian avatar train: checkpoint and log intervals must be >= 1");
+}
+
+bool is_gaussian_avatar_run(const std::string& run_dir) { return fs::exists(run_file(run_dir)); }
+
+namespace {
+
+// The Gaussian avatar as the engine trains it (engine/trainable.h).
+class GaussianTrainable : public Trainable {
+ public:
+  GaussianTrainable(GaussianAvatar avatar, const GaussianTrainOptions& options, const ImageDataset& data,
+                    const ImageSplit& split)
+      : avatar_(std::move(avatar)),
+        options_(options),
+        split_(split),
+        background_(data.background()),
+        size_(character_size(data.character().mesh.vertices, "gaussian avatar train: canonical vertices")) {
+    statistics_.reset(avatar_->size());
+    for (int64_t i = 0; i < split.size(); ++i) {
+      const int64_t w = split.images.size(2), h = split.images.size(1);
+      FSKIN_CHECK(w >= 11 && h >= 11, "gaussian avatar train: images must be at least 11 x 11 (SSIM), got {} x {}", w,
+                  h);
+      auto box = options.crop_margin < 0 ? std::array<int64_t, 4>{0, 0, w, h}
+                                         : mask_box(split.masks[i], options.crop_margin);
+      // At least SSIM's 11 x 11 window: a box too small grows about its centre, within the picture.
+      for (const int axis : {0, 1}) {
+        const int64_t size = axis == 0 ? w : h;
+        int64_t& low = box[axis];
+        int64_t& high = box[axis + 2];
+        const int64_t length = std::max<int64_t>(11, high - low);
+        low = std::clamp<int64_t>((low + high - length) / 2, 0, size - length);
+        high = low + length;
+      }
+      boxes_.push_back(box);
+    }
+  }
+
+  std::vector<OptimizerGroup> optimizer_groups() override {
+    return {{{avatar_->means()}, options_.means_learning_rate * size_},
+            {{avatar_->log_scales()}, options_.scales_learning_rate},
+            {{avatar_->rotations()}, options_.rotations_learning_rate},
+            {{avatar_->opacity_logits()}, options_.opacity_learning_rate},
+            {{avatar_->sh_dc()}, options_.sh_learning_rate},
+            {{avatar_->sh_rest()}, options_.sh_learning_rate / 20}};
+  }
+  std::vector<torch::Tensor> parameters() override { return avatar_->parameters(); }
+
+  void save(torch::serialize::OutputArchive& archive) override {
+    torch::serialize::OutputArchive model;
+    avatar_->save(model);
+    // The density statistics, so that a resumed run densifies as an uninterrupted one.
+    model.write("density_sum", statistics_.sum());
+    model.write("density_count", statistics_.count());
+    archive.write(kGaussianArchiveKey, model);
+  }
+  void load(torch::serialize::InputArchive& archive) override {
+    torch::serialize::InputArchive model;
+    archive.read(kGaussianArchiveKey, model);
+    avatar_->load(model);
+    torch::Tensor sum, count;
+    model.read("density_sum", sum);
+    model.read("density_count", count);
+    statistics_.restore(sum, count);
+  }
+  void to(const torch::Device& device) override {
+    FSKIN_CHECK(device.is_cpu(), "gaussian avatar train: trains on the CPU only so far (asked for {})", device.str());
+  }
+
+  StepLosses step_losses(int64_t step, uint64_t seed, const Shard& shard) override {
+    (void)step;
+    (void)seed;
+    FSKIN_CHECK(shard.count == 1, "gaussian avatar train: data-parallel ranks are not supported yet");
+    const int64_t i = torch::randint(split_.size(), {1}, torch::kInt64).item<int64_t>();
+    const auto& camera = split_.cameras[static_cast<size_t>(i)];
+    const auto& box = boxes_[static_cast<size_t>(i)];  // (u0, v0, u1, v1)
+    // The camera of the box: the same rays, the picture cut to it.
+    PinholeCamera cropped = camera;
+    cropped.intrinsic(0, 2) -= static_cast<double>(box[0]);
+    cropped.intrinsic(1, 2) -= static_cast<double>(box[1]);
+    cropped.width = static_cast<int>(box[2] - box[0]);
+    cropped.height = static_cast<int>(box[3] - box[1]);
+    last_ = avatar_->render(split_.bone_transforms[i], cropped, background_);
+    last_.means2d.retain_grad();
+    // Density statistics in the whole picture's normalised coordinates.
+    last_width_ = camera.width;
+    last_height_ = camera.height;
+    const auto crop = [&](const torch::Tensor& t) { return t.slice(0, box[1], box[3]).slice(1, box[0], box[2]); };
+    const auto target = crop(split_.images[i]).to(torch::kFloat32) / 255;
+    const auto mask = crop(split_.masks[i]).to(torch::kFloat32) / 255;
+    // Means over the whole picture: the box's sums over its pixel count (and
+    // SSIM window count); outside the box the picture is the exact background.
+    const double pixels = static_cast<double>(camera.width) * camera.height;
+    const double windows = static_cast<double>(camera.width - 10) * (camera.height - 10);
+    const double box_windows = static_cast<double>(cropped.width - 10) * (cropped.height - 10);
+    const auto l1 = (last_.image - target).abs().sum() / (3 * pixels);
+    const auto structure = (1 - ssim_tensor(last_.image, target)) * (box_windows / windows);
+    const auto mask_loss = (last_.alpha - mask).abs().sum() / pixels;
+    const double w = options_.ssim_weight;
+    StepLosses out;
+    const auto colour = (1 - w) * l1, ssim_term = w * structure, mask_term = options_.mask_weight * mask_loss;
+    out.total = colour + ssim_term + mask_term;
+    out.terms = {{"l1", colour.detach()}, {"ssim", ssim_term.detach()}, {"mask", mask_term.detach()}};
+    const auto mse = ((last_.image.detach() - target).pow(2).sum() / (3 * pixels)).to(torch::kFloat64);
+    out.metrics = {{"psnr", -10 * torch::log10(mse.clamp_min(1e-12))}};
+    out.host_metrics = {{"gaussians", static_cast<double>(avatar_->size())}};
+    out.throughput = {"pixels_per_s", static_cast<double>(cropped.width) * cropped.height};
+    return out;
+  }
+
+  void after_step(int64_t step, torch::optim::Adam& adam) override {
+    const auto& d = options_.density;
+    const int64_t done = step + 1;
+    const int64_t stop = static_cast<int64_t>(d.stop_fraction * static_cast<double>(options_.steps));
+    if (done > stop) return;
+    if (last_.means2d.grad().defined())
+      statistics_.add(last_.means2d.grad(), last_.radii, last_width_, last_height_);
+    last_ = GaussianRender{};
+    if (done >= d.start && done % d.every == 0) {
+      densify_and_prune(*avatar_, statistics_, adam, d, size_);
+      statistics_.reset(avatar_->size());
+    }
+    if (d.opacity_reset_every > 0 && done % d.opacity_reset_every == 0) reset_opacities(*avatar_, adam, 0.01);
+  }
+
+  std::string progress_text(const nlohmann::json& values) const override {
+    return fmt::format("loss {:.4f} psnr {:.1f} {:.0f} gaussians", values.at("loss").get<double>(),
+                       values.at("psnr").get<double>(), values.at("gaussians").get<double>());
+  }
+
+ private:
+  GaussianAvatar avatar_;
+  const GaussianTrainOptions& options_;
+  const ImageSplit& split_;
+  std::vector<std::array<int64_t, 4>> boxes_;  // per image, the box it is rendered in
+  std::array<double, 3> background_;
+  double size_;
+  DensityStatistics statistics_;
+  GaussianRender last_;  // the step's render, read by after_step
+  int64_t last_width_ = 0, last_height_ = 0;
+};
+
+}  // namespace
+
+GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested) {
+  requested.validate();
+  FSKIN_CHECK(!requested.data_dir.empty() && !requested.out_dir.empty(),
+              "gaussian avatar train: --data and --out are required");
+  GaussianTrainOptions options = requested;
+  const RunDirectory run(requested.out_dir);
+  check_output_apart_from_input(run.path(), requested.data_dir, "avatar train");
+  RunLock lock(run.path());
+  const auto config_file = run_file(run.path());
+  options.resume = false;
+  if (fs::exists(config_file)) {
+    FSKIN_CHECK(requested.resume,
+                "{} already holds a Gaussian avatar run; pass --resume to continue it or use another --out", run.path());
+    options = read_gaussian_run_config(config_file, run.path());
+    options.steps = requested.steps;
+    options.progress = requested.progress;
+    options.stop = requested.stop;
+    options.resume = true;
+  }
+  FSKIN_CHECK(!fs::exists(run.avatar_config_file()),
+              "{} holds a volume avatar run (avatar.json); train the Gaussian avatar into another --out", run.path());
+  const ImageDataset data(options.data_dir);
+  const auto split = data.load_split("train");
+  FSKIN_CHECK(split.size() > 0, "{}: the train split has no images", options.data_dir);
+  create_output_directory(run.path());
+  write_file_atomically(config_file, gaussian_run_document(options).dump(2) + "\n");
+  save_canonical_character(data.character(), run.character_file());
+
+  torch::manual_seed(options.seed);
+  GaussianAvatar avatar(data.character(), options.avatar, options.seed);
+  GaussianTrainable trainable(avatar, options, data, split);
+  TrainerSettings settings;
+  settings.steps = options.steps;
+  settings.seed = options.seed;
+  settings.schedule.decay_fraction = options.decay_fraction;
+  settings.schedule.decay_factor = options.decay_factor;
+  settings.learning_rate = options.means_learning_rate;
+  settings.adam_eps = 1e-15;  // 3DGS's
+  settings.log_every = options.log_every;
+  settings.checkpoint_every = options.checkpoint_every;
+  settings.resume = options.resume;
+  settings.progress = options.progress;
+  settings.progress_label = "gaussian avatar train";
+  settings.learning_rate_hint = "lower the learning rates (--set optimizer.learning_rates.means=...)";
+  settings.stop = options.stop;
+  const auto result = Trainer(run, settings).run(trainable);
+
+  GaussianTrainSummary summary;
+  summary.first_step = result.first_step;
+  summary.last_step = result.last_step;
+  summary.seconds = result.seconds;
+  summary.stopped = result.stopped;
+  summary.gaussians = avatar->size();
+  if (!result.last_logged.is_null()) {
+    summary.final_loss = result.last_logged.at("loss").get<double>();
+    summary.final_psnr = result.last_logged.at("psnr").get<double>();
+  }
+  return summary;
+}
+
+TrainedGaussianAvatar TrainedGaussianAvatar::load(const std::string& run_dir) {
+  const RunDirectory run(run_dir);
+  const auto config_file = run_file(run_dir);
+  FSKIN_CHECK(fs::exists(config_file),
+              "{}: not a Gaussian avatar run (no {}; train one with `fskin avatar train --representation gaussians`)",
+              run_dir, config_file);
+  TrainedGaussianAvatar out;
+  out.options = read_gaussian_run_config(config_file, run_dir);
+  const auto character = load_canonical_character(run.character_file());
+  out.avatar = GaussianAvatar(character, out.options.avatar, out.options.seed);
+  out.step = load_model_checkpoint(run, CheckpointChoice{}, kGaussianArchiveKey,
+                                   [&out](torch::serialize::InputArchive& archive) { out.avatar->load(archive); });
+  out.avatar->eval();
+  return out;
+}
+
+std::pair<torch::Tensor, torch::Tensor> TrainedGaussianAvatar::render(const torch::Tensor& bones,
+                                                                      const PinholeCamera& camera,
+                                                                      const std::array<double, 3>& background) {
+  torch::NoGradGuard no_grad;
+  const auto rendered = avatar->render(bones.detach().to(torch::kCPU, torch::kFloat32), camera, background);
+  return {rendered.image.clamp(0, 1), rendered.alpha};
+}
+
+}  // namespace fskin

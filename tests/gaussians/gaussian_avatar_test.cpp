@@ -1,0 +1,117 @@
+// Articulated Gaussians: forward skinning of Gaussians against LBS of the
+// mesh they sit on, a rigid motion of the body against the same motion of the
+// camera, spherical harmonics, and replacing the Gaussians.
+#include "fskin/gaussians/gaussian_avatar.h"
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <Eigen/Geometry>
+
+#include "fskin/gaussians/spherical_harmonics.h"
+#include "fskin/skeleton/lbs.h"
+#include "radiance/tiny_image_dataset.h"
+
+namespace fskin {
+namespace {
+
+GaussianAvatarOptions small_options(int64_t gaussians, int64_t sh_degree) {
+  GaussianAvatarOptions o;
+  o.initial_gaussians = gaussians;
+  o.sh_degree = sh_degree;
+  o.skinning_grid_resolution = 48;
+  return o;
+}
+
+TEST(GaussianAvatar, GaussiansOnTheVerticesFollowTheMeshsLinearBlendSkinning) {
+  const ImageDataset dataset(testing::tiny_image_dataset().dir);
+  const auto& character = dataset.character();
+  const auto split = dataset.load_split("train");
+  GaussianAvatar avatar(character, small_options(100, 0), 0);
+  const auto vertices = character.mesh.vertices.to(torch::kFloat32);
+  const int64_t n = vertices.size(0);
+  avatar->replace_gaussians(vertices, torch::zeros({n, 3}), torch::tensor({1.0f, 0.0f, 0.0f, 0.0f}).repeat({n, 1}),
+                            torch::zeros({n}), torch::zeros({n, 1, 3}), torch::zeros({n, 0, 3}));
+  EXPECT_EQ(avatar->size(), n);
+  const auto height = (vertices.select(1, 1).max() - vertices.select(1, 1).min()).item<double>();
+  for (int64_t frame = 0; frame < split.size(); ++frame) {
+    const auto bones = split.bone_transforms[frame];
+    torch::NoGradGuard no_grad;
+    const auto posed = avatar->pose(bones);
+    const auto expected = linear_blend_skinning(vertices.unsqueeze(0), character.weights.to(torch::kFloat32),
+                                                bones.unsqueeze(0))[0];
+    const auto distance = (posed.means - expected).norm(2, 1);
+    // The grid's weights are the mesh's at the surface up to trilinear
+    // interpolation: vertices land within a small share of the height.
+    EXPECT_LT(distance.mean().item<double>(), 0.002 * height) << "frame " << frame;
+    EXPECT_LT(distance.max().item<double>(), 0.03 * height) << "frame " << frame;
+  }
+}
+
+TEST(GaussianAvatar, MovingTheBodyRigidlyRendersAsMovingTheCameraTheOtherWay) {
+  // Every bone moved by one rigid transform M: the posed Gaussians are the
+  // canonical ones moved by M, so a camera E sees what the camera E M sees of
+  // the unposed body, view-dependent colour included.
+  const ImageDataset dataset(testing::tiny_image_dataset().dir);
+  const auto& character = dataset.character();
+  const auto split = dataset.load_split("train");
+  GaussianAvatar avatar(character, small_options(3000, 2), 1);
+  torch::manual_seed(0);
+  {
+    torch::NoGradGuard no_grad;
+    avatar->sh_dc().normal_(0, 0.4);
+    avatar->sh_rest().normal_(0, 0.4);
+    avatar->log_scales().add_(torch::randn_like(avatar->log_scales()) * 0.3);
+    avatar->rotations().normal_();
+  }
+  Eigen::Matrix4d motion = Eigen::Matrix4d::Identity();
+  motion.topLeftCorner<3, 3>() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, 1, -0.3).normalized()).toRotationMatrix();
+  motion.topRightCorner<3, 1>() = Eigen::Vector3d(0.05, -0.1, 0.2);
+  const int64_t joints = character.num_joints();
+  auto moved = torch::empty({4, 4}, torch::kFloat64);
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) moved[i][j] = motion(i, j);
+  const auto bones = moved.to(torch::kFloat32).expand({joints, 4, 4}).contiguous();
+  const auto identity = torch::eye(4).expand({joints, 4, 4}).contiguous();
+  const PinholeCamera camera = split.cameras[0];
+  PinholeCamera moved_camera = camera;
+  moved_camera.extrinsic = camera.extrinsic * motion;
+  torch::NoGradGuard no_grad;
+  const auto a = avatar->render(bones, camera, {1, 1, 1});
+  const auto b = avatar->render(identity, moved_camera, {1, 1, 1});
+  EXPECT_GT(a.alpha.sum().item<double>(), 100.0);  // the body is in the picture
+  EXPECT_LT((a.image - b.image).abs().max().item<double>(), 2e-3);
+  EXPECT_LT((a.alpha - b.alpha).abs().max().item<double>(), 2e-3);
+}
+
+TEST(GaussianAvatar, SphericalHarmonicsOfDegreeZeroGiveTheirColourAndHigherDegreesVaryWithTheView) {
+  const auto color = torch::tensor({0.2f, 0.5f, 0.9f}).view({1, 3});
+  auto coefficients = torch::zeros({1, 4, 3});
+  coefficients.select(1, 0) = color_to_spherical_harmonics_dc(color);
+  const auto forward = torch::tensor({0.0f, 0.0f, 1.0f}).view({1, 3});
+  EXPECT_TRUE(torch::allclose(spherical_harmonics_color(coefficients, forward), color, 1e-6, 1e-6));
+  coefficients.select(1, 2).fill_(0.3f);  // the z-linear term
+  const auto front = spherical_harmonics_color(coefficients, forward);
+  const auto back = spherical_harmonics_color(coefficients, -forward);
+  EXPECT_TRUE(torch::allclose(front - color, color - back, 1e-6, 1e-6));
+  EXPECT_NEAR((front - color)[0][0].item<float>(), 0.3f * 0.4886025f, 1e-6);
+  testing::expect_error([&] { spherical_harmonics_color(torch::zeros({1, 5, 3}), forward); }, {"5 coefficients"});
+}
+
+TEST(GaussianAvatar, StartsOnTheSurfaceAndRejectsBadOptions) {
+  const ImageDataset dataset(testing::tiny_image_dataset().dir);
+  const auto& character = dataset.character();
+  GaussianAvatar avatar(character, small_options(500, 1), 2);
+  EXPECT_EQ(avatar->size(), 500);
+  EXPECT_EQ(avatar->sh().size(1), 4);
+  const auto weights = avatar->skinning_weights();
+  EXPECT_TRUE(torch::allclose(weights.sum(1), torch::ones({500}), 1e-4, 1e-4));
+  // Same seed, same Gaussians.
+  GaussianAvatar again(character, small_options(500, 1), 2);
+  EXPECT_TRUE(torch::equal(avatar->means(), again->means()));
+  auto bad = small_options(10, 4);
+  testing::expect_error([&] { GaussianAvatar(character, bad, 0); }, {"sh_degree", "0 to 3"});
+}
+
+}  // namespace
+}  // namespace fskin

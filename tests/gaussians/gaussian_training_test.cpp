@@ -1,0 +1,165 @@
+// Training Gaussian avatars: density control's bookkeeping (parameters and
+// Adam's moments), a short run that learns the tiny dataset, resume repeating
+// an uninterrupted run exactly, and the config document.
+#include "fskin/gaussians/gaussian_training.h"
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <filesystem>
+
+#include "fskin/engine/run_directory.h"
+#include "fskin/gaussians/density_control.h"
+#include "fskin/gaussians/gaussian_config.h"
+#include "fskin/gaussians/gaussian_evaluation.h"
+#include "fskin/radiance/image_metrics.h"
+#include "radiance/tiny_image_dataset.h"
+
+namespace fskin {
+namespace {
+
+GaussianTrainOptions tiny_gaussian_training(const std::string& name, int64_t steps) {
+  GaussianTrainOptions o;
+  o.data_dir = testing::tiny_image_dataset().dir;
+  o.out_dir = (testing::temp_dir(name) / "run").string();
+  o.steps = steps;
+  o.avatar.initial_gaussians = 1500;
+  o.avatar.skinning_grid_resolution = 32;
+  o.density.start = 20;
+  o.density.every = 20;
+  o.density.opacity_reset_every = 0;
+  o.checkpoint_every = 1000;
+  o.log_every = 10;
+  o.progress = false;
+  return o;
+}
+
+TEST(GaussianDensityControl, ClonesSplitsAndPrunesWithTheirAdamMoments) {
+  const ImageDataset dataset(testing::tiny_image_dataset().dir);
+  GaussianAvatarOptions options;
+  options.initial_gaussians = 40;
+  options.skinning_grid_resolution = 16;
+  GaussianAvatar avatar(dataset.character(), options, 0);
+  const double size = 1.7;
+  {
+    torch::NoGradGuard no_grad;
+    // Gaussians 0-9 small (clone candidates), 10-19 large (split), 20-24 transparent (pruned).
+    avatar->log_scales().fill_(std::log(0.005 * size));
+    avatar->log_scales().narrow(0, 10, 10).fill_(std::log(0.05 * size));
+    avatar->opacity_logits().narrow(0, 20, 5).fill_(-8.0f);
+  }
+  torch::optim::Adam adam(avatar->parameters(), torch::optim::AdamOptions(1e-3));
+  {
+    // Its graph is released before the Gaussians change (GaussianAvatarImpl::replace_gaussians).
+    torch::Tensor everything = torch::zeros({});
+    for (const auto& p : avatar->parameters()) everything = everything + p.sum();
+    everything.backward();
+  }
+  adam.step();  // moments exist for every parameter
+  DensityStatistics statistics;
+  statistics.reset(40);
+  auto grad = torch::zeros({40, 2});
+  grad.narrow(0, 0, 20).fill_(1.0f);  // in pixels; x 20 (half of 40 pixels) in NDC units
+  statistics.add(grad, torch::ones({40}), 40, 40);
+  const auto before_means = avatar->means().detach().clone();
+  const auto before_sh = avatar->sh_dc().detach().clone();
+  DensityControlOptions control;
+  const auto change = densify_and_prune(*avatar, statistics, adam, control, size);
+  EXPECT_EQ(change.cloned, 10);
+  EXPECT_EQ(change.split, 10);
+  EXPECT_EQ(change.pruned, 5);
+  // 40 - 5 pruned - 10 split parents + 10 clones + 20 halves.
+  EXPECT_EQ(avatar->size(), 55);
+  // The kept ones first in their order (0-9 and 25-39), then the clones, then the halves.
+  const auto kept = torch::cat({torch::arange(0, 10), torch::arange(25, 40)});
+  EXPECT_TRUE(torch::equal(avatar->means().narrow(0, 0, 25), before_means.index_select(0, kept)));
+  EXPECT_TRUE(torch::equal(avatar->means().narrow(0, 25, 10), before_means.narrow(0, 0, 10)));
+  EXPECT_TRUE(torch::equal(avatar->sh_dc().narrow(0, 35, 10), before_sh.narrow(0, 10, 10)));
+  const auto half_scales = torch::exp(avatar->log_scales().narrow(0, 35, 20));
+  // (Adam's one step moved the log-scales by about its learning rate.)
+  EXPECT_TRUE(torch::allclose(half_scales, torch::full_like(half_scales, 0.05 * size / 1.6), 2e-3, 0.0));
+  // Halves are drawn around their parent, within a few of its standard deviations.
+  const auto offset = (avatar->means().narrow(0, 35, 10) - before_means.narrow(0, 10, 10)).norm(2, 1);
+  EXPECT_LT(offset.max().item<double>(), 5 * std::sqrt(3.0) * 0.05 * size);
+  for (const auto& p : avatar->parameters()) {
+    const auto& state = static_cast<torch::optim::AdamParamState&>(
+        *adam.state().at(c10::guts::to_string(p.unsafeGetTensorImpl())));
+    EXPECT_EQ(state.exp_avg().size(0), 55);
+    EXPECT_EQ(state.exp_avg_sq().size(0), 55);
+    EXPECT_EQ(state.exp_avg().narrow(0, 25, 30).abs().max().item<double>(), 0.0);  // new Gaussians start at zero
+  }
+  // The next step trains the new set.
+  adam.zero_grad();
+  avatar->means().square().sum().backward();
+  adam.step();
+  EXPECT_EQ(avatar->means().grad().size(0), 55);
+}
+
+TEST(GaussianTraining, AShortRunLearnsTheTinyDataset) {
+  auto options = tiny_gaussian_training("gaussian_short_run", 150);
+  const ImageDataset data(options.data_dir);
+  const auto split = data.load_split("train");
+  // The untrained avatar (grey Gaussians on the canonical mesh) as a baseline.
+  GaussianAvatar untrained(data.character(), options.avatar, options.seed);
+  double before = 0;
+  {
+    torch::NoGradGuard no_grad;
+    for (int64_t i = 0; i < split.size(); ++i) {
+      const auto image = untrained->render(split.bone_transforms[i], split.cameras[i], data.background()).image;
+      before += psnr(image.clamp(0, 1), split.images[i].to(torch::kFloat32) / 255) / static_cast<double>(split.size());
+    }
+  }
+  const auto summary = train_gaussian_avatar(options);
+  EXPECT_EQ(summary.last_step, 150);
+  EXPECT_NE(summary.gaussians, 1500);  // density control ran
+  const auto train_scores = evaluate_gaussian_avatar_run(options.out_dir, "", "train", 0, false);
+  const auto novel_pose = evaluate_gaussian_avatar_run(options.out_dir, "", "novel_pose", 0, false);
+  EXPECT_GT(train_scores.mean_psnr, before + 3.0) << "before " << before;
+  EXPECT_GT(novel_pose.mean_psnr, before + 2.0) << "before " << before;
+  EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(options.out_dir) / "gaussian_avatar.json"));
+  EXPECT_TRUE(is_gaussian_avatar_run(options.out_dir));
+}
+
+TEST(GaussianTraining, AResumedRunRepeatsTheUninterruptedOneExactly) {
+  // 60 steps with a checkpoint at 30; the run is then cut back to its
+  // step-30 checkpoint, as a kill after it leaves it, and resumed to 60.
+  auto options = tiny_gaussian_training("gaussian_resume", 60);
+  options.checkpoint_every = 30;
+  options.density.stop_fraction = 0.8;  // densifications at 20 and 40, on both sides of the cut
+  train_gaussian_avatar(options);
+  const auto whole = TrainedGaussianAvatar::load(options.out_dir);
+  const RunDirectory run(options.out_dir);
+  ASSERT_EQ(run.checkpoints().size(), 2u);
+  std::filesystem::remove(run.checkpoints().front());  // the step-60 one
+  ASSERT_EQ(TrainedGaussianAvatar::load(options.out_dir).step, 30);
+  options.resume = true;
+  const auto summary = train_gaussian_avatar(options);
+  EXPECT_EQ(summary.first_step, 30);
+  const auto resumed = TrainedGaussianAvatar::load(options.out_dir);
+  EXPECT_EQ(resumed.step, 60);
+  EXPECT_NE(whole.avatar->size(), options.avatar.initial_gaussians);
+  ASSERT_EQ(whole.avatar->size(), resumed.avatar->size());
+  EXPECT_TRUE(torch::equal(whole.avatar->means(), resumed.avatar->means()));
+  EXPECT_TRUE(torch::equal(whole.avatar->sh_dc(), resumed.avatar->sh_dc()));
+  EXPECT_TRUE(torch::equal(whole.avatar->opacity_logits(), resumed.avatar->opacity_logits()));
+}
+
+TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
+  GaussianTrainOptions base;
+  base.data_dir = "data";
+  base.out_dir = "out";
+  const auto changed = configure_gaussian_options(base, "", {"model.gaussians.sh_degree=3", "density.every=50"});
+  EXPECT_EQ(changed.avatar.sh_degree, 3);
+  EXPECT_EQ(changed.density.every, 50);
+  const auto again = gaussian_options_from_document(gaussian_config_document(changed), base, "doc");
+  EXPECT_EQ(gaussian_config_document(again), gaussian_config_document(changed));
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"model.gaussians.colour=3"}); },
+                        {"--set model.gaussians.colour=3", "unknown key"});
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"model.gaussians.sh_degree=5"}); },
+                        {"sh_degree", "0 to 3"});
+  testing::expect_error([&] { TrainedGaussianAvatar::load(testing::temp_dir("not_a_gaussian_run").string()); },
+                        {"not a Gaussian avatar run"});
+}
+
+}  // namespace
+}  // namespace fskin
