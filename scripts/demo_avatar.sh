@@ -5,7 +5,9 @@
 # through the Fast-SNARF deformer on the CPU, PSNR / SSIM on held-out views
 # and on held-out poses seen from held-out views (one JSON per split), and a
 # picture of the learned avatar beside the ground truth in unseen poses from
-# unseen views. FSKIN_AVATAR_STEPS and FSKIN_AVATAR_SIZE shorten it.
+# unseen views; then the same with an avatar of articulated 3-D Gaussians
+# (docs/gaussian_avatars.md) and the two side by side. FSKIN_AVATAR_STEPS and
+# FSKIN_AVATAR_SIZE shorten it.
 set -euo pipefail
 FSKIN=${1:-build/fskin}
 OUT=${2:-demo-avatar-output}
@@ -36,4 +38,29 @@ stage "pictures and mesh"
 # Ground truth (left) and the learned avatar (right), unseen poses from unseen views.
 "$FSKIN" avatar render "$OUT/run" --split novel_pose --index 0,3,6 --compare --out "$OUT/novel_poses_vs_truth.png"
 "$FSKIN" avatar mesh "$OUT/run" --resolution 128 --out "$OUT/avatar_canonical.ply"
+
+stage "the same dataset as articulated 3-D Gaussians ($STEPS steps)"
+rm -rf "$OUT/gaussians"
+gaussians_start=$(date +%s)
+"$FSKIN" avatar train --data "$OUT/images" --out "$OUT/gaussians" --representation gaussians --steps "$STEPS"
+gaussians_seconds=$(( $(date +%s) - gaussians_start ))
+"$FSKIN" avatar eval "$OUT/gaussians" --split novel_view --json "$OUT/gaussians_eval_novel_view.json" --quiet
+"$FSKIN" avatar eval "$OUT/gaussians" --split novel_pose --json "$OUT/gaussians_eval_novel_pose.json" --quiet
+"$FSKIN" avatar render "$OUT/gaussians" --split novel_pose --index 0,3,6 --compare \
+  --out "$OUT/gaussians_novel_poses_vs_truth.png"
+echo
+echo "== volume avatar vs Gaussian avatar (PSNR over the whole image / the subject's box, dB)"
+/usr/bin/python3 - "$OUT" "$gaussians_seconds" <<'PY'
+import json, sys
+out = sys.argv[1]
+for name, prefix in (("volume", "eval"), ("gaussians", "gaussians_eval")):
+    row = [name]
+    for split in ("novel_view", "novel_pose"):
+        scores = json.load(open(f"{out}/{prefix}_{split}.json"))
+        row.append(f"{split} {scores['mean_psnr']:.2f} / {scores['mean_psnr_subject_box']:.2f}")
+        if split == "novel_pose":
+            row.append(f"render {scores['median_render_seconds']:.2f} s")
+    print("  ".join(row))
+print(f"gaussians trained in {sys.argv[2]} s")
+PY
 echo "demo-avatar: finished in $(( $(date +%s) - start )) s; outputs are in $OUT/"
