@@ -27,6 +27,7 @@
 #include "fskin/engine/stop_signal.h"
 #include "fskin/gaussians/gaussian_config.h"
 #include "fskin/gaussians/gaussian_evaluation.h"
+#include "fskin/gaussians/gaussian_export.h"
 #include "fskin/gaussians/gaussian_training.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/util/progress.h"
@@ -395,7 +396,8 @@ void register_avatar(CLI::App& app) {
   auto exported = std::make_shared<ExportOptions>();
   auto* x = cmd->add_subcommand("export", "The avatar as a rigged glTF character (.glb/.gltf): its coloured surface "
                                           "with the skinning weights it is posed with, the dataset's skeleton, and "
-                                          "optionally an animation");
+                                          "optionally an animation; a Gaussian avatar as a 3DGS .ply with its "
+                                          "weights, skeleton and animation");
   x->add_option("run", exported->run, "avatar run directory")->required();
   x->add_option("--out", exported->out, "output .glb or .gltf")->required();
   x->add_option("--resolution", exported->resolution, "grid samples along the canonical box's longest side")
@@ -409,9 +411,28 @@ void register_avatar(CLI::App& app) {
   x->add_option("--influences", exported->influences,
                 "largest weights kept per vertex (4: what every engine reads; 0: all)")
       ->check(CLI::NonNegativeNumber);
-  x->callback([exported] {
+  x->callback([x, exported] {
     FSKIN_CHECK(exported->split.empty() || exported->bones.empty(), "give --split or --bones, not both");
     const auto extension = fs::path(exported->out).extension().string();
+    if (is_gaussian_avatar_run(exported->run)) {
+      // The Gaussians themselves: 3DGS's PLY layout plus weights, skeleton and animation.
+      FSKIN_CHECK(extension == ".ply", "{}: a Gaussian avatar is written as a 3DGS .ply: name it .ply",
+                  exported->out);
+      for (const char* name : {"--resolution", "--influences"}) {
+        FSKIN_CHECK(x->count(name) == 0, "{} applies to the volume avatar's glTF, not to a Gaussian avatar", name);
+      }
+      auto trained = TrainedGaussianAvatar::load(exported->run);
+      const ImageDataset data(exported->data.empty() ? trained.options.data_dir : exported->data);
+      torch::Tensor bones;
+      if (!exported->split.empty()) bones = data.load_split(exported->split).bone_transforms;
+      if (!exported->bones.empty()) bones = load_bone_transforms(exported->bones, data.character().num_joints());
+      write_gaussian_ply(exported->out, *trained.avatar, data.character().skeleton, bones, exported->fps);
+      std::printf("wrote %s (%lld Gaussians, %lld joints%s)\n", exported->out.c_str(),
+                  static_cast<long long>(trained.avatar->size()),
+                  static_cast<long long>(data.character().num_joints()),
+                  bones.defined() ? fmt::format(", an animation of {} poses", bones.size(0)).c_str() : "");
+      return;
+    }
     FSKIN_CHECK(extension == ".glb" || extension == ".gltf", "{}: the avatar is written as glTF: name it .glb or .gltf",
                 exported->out);
     auto trained = TrainedAvatar::load(exported->run);

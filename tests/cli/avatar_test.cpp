@@ -198,6 +198,11 @@ TEST_F(AvatarCommands, GaussianAvatarsTrainEvaluateAndRender) {
   EXPECT_EQ(read_png(path("gs.png")).width, 64);
   ASSERT_EQ(run_cli("avatar render " + run + " --turntable 2 --out " + path("gs_turn")), 0) << log();
   EXPECT_TRUE(fs::exists(path("gs_turn/frame_0001.png")));
+  ASSERT_EQ(run_cli("avatar export " + run + " --split train --out " + path("gs.ply")), 0) << log();
+  EXPECT_NE(log().find("an animation of 4 poses"), std::string::npos) << log();
+  EXPECT_EQ(read_file(path("gs.ply")).rfind("ply\nformat binary_little_endian 1.0\n", 0), 0u);
+  ASSERT_NE(run_cli("avatar export " + run + " --out " + path("gs.glb")), 0);
+  EXPECT_NE(log().find("name it .ply"), std::string::npos) << log();
   // The volume avatar's options are not the Gaussian avatar's; a volume run is not continued as one.
   ASSERT_NE(run_cli("avatar train --data " + path("images") + " --out " + path("gs2") +
                     " --representation gaussians --rays 64"),

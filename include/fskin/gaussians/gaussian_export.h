@@ -1,0 +1,29 @@
+#pragma once
+// A Gaussian avatar as a file other programs read: a binary little-endian PLY
+// whose `vertex` element is 3D Gaussian splatting's own layout (x y z, nx ny
+// nz, f_dc_0..2, f_rest_*, opacity as a logit, scale_0..2 as logs, rot_0..3 a
+// quaternion w x y z), so 3DGS viewers show the canonical avatar as it is,
+// plus what posing it needs (docs/gaussian_avatars.md, "Export"):
+//   weight_0 .. weight_{J-1}    every joint's skinning weight (rows sum to 1)
+//   element joint J             parent (int), x y z: the canonical joints;
+//                               names in `comment joint_name <j> <name>` lines
+//   element bone_transform F*J  (with an animation) m00 .. m33, row-major 4 x 4
+//                               canonical -> posed transforms, frame by frame;
+//                               `comment fps <f>`
+// A reader poses Gaussian i in a frame as fskin does: T = sum_j w_ij B_j,
+// mean' = T mean, covariance' = A R S S R^T A^T (A: T's 3 x 3 part).
+#include <torch/types.h>
+
+#include <string>
+
+#include "fskin/gaussians/gaussian_avatar.h"
+#include "fskin/skeleton/skeleton.h"
+
+namespace fskin {
+
+// bones: [F, J, 4, 4] for an animation, or undefined. Written atomically;
+// errors name `path`.
+void write_gaussian_ply(const std::string& path, GaussianAvatarImpl& avatar, const Skeleton& skeleton,
+                        const torch::Tensor& bones = {}, double fps = 30);
+
+}  // namespace fskin
