@@ -44,6 +44,7 @@ from ._fskin import (  # noqa: F401
     render_avatar,
     train,
     train_avatar,
+    train_gaussian_avatar,
     training_poses,
     write_mesh,
 )

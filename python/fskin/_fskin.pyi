@@ -277,7 +277,8 @@ def evaluate_avatar(run: str, split: str = ..., data: str = ..., max_images: int
 def export_avatar(run: str, out: str, bones: Optional[torch.Tensor] = ..., resolution: int = ..., fps: float = ..., influences: int = ..., data: str = ...) -> None:
     """`fskin avatar export`: the avatar as a rigged glTF character (.glb/.gltf): its coloured surface
     (COLOR_0), the skinning weights it is posed with, the dataset's skeleton; bones [T, J, 4, 4]
-    (canonical -> posed) as an animation"""
+    (canonical -> posed) as an animation. A Gaussian avatar's run: its Gaussians as a 3DGS .ply with
+    weights, skeleton and animation (resolution and influences do not apply)"""
     ...
 
 def hash_encoding(positions: torch.Tensor, table: torch.Tensor, levels: int = ..., features_per_level: int = ..., log2_table_size: int = ..., base_resolution: int = ..., per_level_scale: float = ...) -> torch.Tensor:
@@ -371,6 +372,12 @@ def train_avatar(data: str, out: str, steps: int = ..., rays_per_step: int = ...
     """`fskin avatar train`: a radiance field through the Fast-SNARF deformer from an image dataset;
     every option of the avatar's config (radiance/avatar_config.h) through settings
     ['model.occupancy_grid.every=50', ...] and a config file"""
+    ...
+
+def train_gaussian_avatar(data: str, out: str, steps: int = ..., resume: bool = ..., seed: int = ..., progress: bool = ..., settings: List[str] = [], config: str = ...) -> dict:
+    """`fskin avatar train --representation gaussians`: articulated 3-D Gaussians from an image dataset;
+    every option of their config (gaussians/gaussian_config.h) through settings ['density.every=50',
+    ...] and a config file; evaluate_avatar, render_avatar and export_avatar take the run"""
     ...
 
 def training_poses(body: BodyModel, sequences: int = ..., frames: int = ..., seed: int = ...) -> torch.Tensor:

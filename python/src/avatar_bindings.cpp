@@ -4,6 +4,10 @@
 #include <array>
 
 #include "fskin/export/skinned_gltf.h"
+#include "fskin/gaussians/gaussian_config.h"
+#include "fskin/gaussians/gaussian_evaluation.h"
+#include "fskin/gaussians/gaussian_export.h"
+#include "fskin/gaussians/gaussian_training.h"
 #include "fskin/radiance/avatar_export.h"
 #include "fskin/radiance/capture_import.h"
 
@@ -136,6 +140,13 @@ void bind_avatars(py::module_& m) {
       [](const std::string& run, const std::string& out, const std::optional<torch::Tensor>& bones, int64_t resolution,
          double fps, int64_t influences, const std::string& data) {
         py::gil_scoped_release release;
+        const auto given = bones ? bones->detach().to(torch::kCPU, torch::kFloat32) : torch::Tensor();
+        if (fskin::is_gaussian_avatar_run(run)) {  // the Gaussians as a 3DGS PLY (docs/gaussian_avatars.md)
+          auto trained = fskin::TrainedGaussianAvatar::load(run);
+          const fskin::ImageDataset dataset(data.empty() ? trained.options.data_dir : data);
+          fskin::write_gaussian_ply(out, *trained.avatar, dataset.character().skeleton, given, fps);
+          return;
+        }
         auto trained = fskin::TrainedAvatar::load(run);
         const fskin::ImageDataset dataset(data.empty() ? trained.options.data_dir : data);
         auto character = fskin::rigged_image_avatar(trained.avatar, dataset.character().skeleton, resolution,
@@ -149,7 +160,8 @@ void bind_avatars(py::module_& m) {
       py::arg("influences") = 4, py::arg("data") = "",
       "`fskin avatar export`: the avatar as a rigged glTF character (.glb/.gltf): its coloured surface (COLOR_0), "
       "the skinning weights it is posed with, the dataset's skeleton; bones [T, J, 4, 4] (canonical -> posed) as "
-      "an animation");
+      "an animation. A Gaussian avatar's run: its Gaussians as a 3DGS .ply with weights, skeleton and animation "
+      "(resolution and influences do not apply)");
   m.def(
       "train_avatar",
       [](const std::string& data, const std::string& out, int64_t steps, int64_t rays_per_step, bool resume,
@@ -180,13 +192,43 @@ void bind_avatars(py::module_& m) {
       "of the avatar's config (radiance/avatar_config.h) through settings ['model.occupancy_grid.every=50', ...] "
       "and a config file");
   m.def(
+      "train_gaussian_avatar",
+      [](const std::string& data, const std::string& out, int64_t steps, bool resume, uint64_t seed, bool progress,
+         const std::vector<std::string>& settings, const std::string& config) {
+        fskin::GaussianTrainOptions options;
+        options.data_dir = data;
+        options.out_dir = out;
+        options.steps = steps;
+        options.seed = seed;
+        options = fskin::configure_gaussian_options(options, config, settings);  // as `fskin avatar train`
+        options.resume = resume;
+        options.progress = progress;
+        fskin::GaussianTrainSummary summary;
+        {
+          py::gil_scoped_release release;
+          const fskin::SingleThreadedBlasScope blas;
+          summary = fskin::train_gaussian_avatar(options);
+        }
+        return py::dict(py::arg("first_step") = summary.first_step, py::arg("last_step") = summary.last_step,
+                        py::arg("seconds") = summary.seconds, py::arg("loss") = summary.final_loss,
+                        py::arg("psnr") = summary.final_psnr, py::arg("gaussians") = summary.gaussians);
+      },
+      py::arg("data"), py::arg("out"), py::arg("steps") = 3000, py::arg("resume") = false, py::arg("seed") = 0,
+      py::arg("progress") = false, py::arg("settings") = std::vector<std::string>{}, py::arg("config") = "",
+      "`fskin avatar train --representation gaussians`: articulated 3-D Gaussians from an image dataset; every "
+      "option of their config (gaussians/gaussian_config.h) through settings ['density.every=50', ...] and a "
+      "config file; evaluate_avatar, render_avatar and export_avatar take the run");
+  m.def(
       "evaluate_avatar",
       [](const std::string& run, const std::string& split, const std::string& data, int64_t max_images,
          int64_t fit_poses) {
         fskin::PoseFittingOptions fitting;
         fitting.steps = fit_poses;
         py::gil_scoped_release release;
-        const auto scores = fskin::evaluate_avatar_run(run, data, split, max_images, false, fitting);
+        const bool gaussians = fskin::is_gaussian_avatar_run(run);
+        FSKIN_CHECK(!gaussians || fit_poses == 0, "{}: fit_poses is not available for Gaussian avatars yet", run);
+        const auto scores = gaussians ? fskin::evaluate_gaussian_avatar_run(run, data, split, max_images, false)
+                                      : fskin::evaluate_avatar_run(run, data, split, max_images, false, fitting);
         py::gil_scoped_acquire acquire;
         return py::module_::import("json").attr("loads")(scores.to_json());
       },
@@ -201,8 +243,10 @@ void bind_avatars(py::module_& m) {
         FSKIN_CHECK(background.size() == 3, "render_avatar: background must have 3 components");
         const auto camera = fskin::PinholeCamera::from_matrices(intrinsic, extrinsic, width, height, "render_avatar");
         py::gil_scoped_release release;
-        const auto [rgb, opacity] =
-            fskin::TrainedAvatar::load(run).render(bones, camera, {background[0], background[1], background[2]});
+        const std::array<double, 3> color{background[0], background[1], background[2]};
+        const auto [rgb, opacity] = fskin::is_gaussian_avatar_run(run)
+                                        ? fskin::TrainedGaussianAvatar::load(run).render(bones, camera, color)
+                                        : fskin::TrainedAvatar::load(run).render(bones, camera, color);
         py::gil_scoped_acquire acquire;
         return py::make_tuple(rgb, opacity);
       },

@@ -152,3 +152,33 @@ def test_import_capture_reads_a_peoplesnapshot_folder(tmp_path):
     assert manifest["splits"] == ["train", "novel_pose"] and manifest["capture_layout"].startswith("PeopleSnapshot")
     with pytest.raises(fskin.Error, match="--train"):
         fskin.import_capture(str(capture), model, str(tmp_path / "bad"), train="2:1")
+
+
+def test_gaussian_avatars_train_evaluate_render_and_export(tmp_path):
+    model = str(tmp_path / "model.npz")
+    fskin.humanoid(resolution=40).save(model)
+    body = fskin.BodyModel.load(model)
+    poses = fskin.training_poses(body, sequences=1, frames=2)
+    fskin.build_image_dataset(model, poses, str(tmp_path / "images"), held_out_poses=fskin.ood_poses(body, count=1),
+                              size=32, views=2, held_out_views=1, novel_view_frames=1)
+    run = str(tmp_path / "gaussians")
+    result = fskin.train_gaussian_avatar(str(tmp_path / "images"), run, steps=20,
+                                         settings=["model.gaussians.initial=500", "density.start=10",
+                                                   "density.every=10"])
+    assert result["last_step"] == 20 and result["gaussians"] != 500
+    scores = fskin.evaluate_avatar(run, split="train")
+    assert scores["images"] == 4 and scores["mean_psnr"] > 10
+    split_dir = tmp_path / "images" / "train"
+    cam = np.load(split_dir / "cameras.npz")
+    bones = np.load(split_dir / "poses.npz")["bone_transforms"]
+    rgb, alpha = fskin.render_avatar(run, torch.from_numpy(bones[0]), torch.from_numpy(cam["intrinsic"][0]),
+                                     torch.from_numpy(cam["extrinsic"][0]), 32, 32)
+    assert rgb.shape == (32, 32, 3) and 0.0 < float(alpha.max()) <= 1.0
+    fskin.export_avatar(run, str(tmp_path / "avatar.ply"), bones=torch.from_numpy(bones))
+    header = (tmp_path / "avatar.ply").read_bytes()[:200]
+    assert header.startswith(b"ply\nformat binary_little_endian 1.0\n")
+    with pytest.raises(fskin.Error, match="fit_poses is not available"):
+        fskin.evaluate_avatar(run, split="train", fit_poses=2)
+    with pytest.raises(fskin.Error, match="unknown key"):
+        fskin.train_gaussian_avatar(str(tmp_path / "images"), str(tmp_path / "bad"), steps=1,
+                                    settings=["model.gaussians.colour=1"])

@@ -8,6 +8,7 @@
 #include <torch/torch.h>
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "test_util.h"
@@ -204,12 +205,22 @@ TEST(GaussianRasterization, GradientsRepeatExactlyAcrossRunsAndThreadCounts) {
   }
 }
 
-TEST(GaussianRasterization, NoGaussiansGiveTheBackground) {
+TEST(GaussianRasterization, NoGaussiansOrNonFiniteOnesGiveTheBackground) {
   const auto empty2 = torch::zeros({0, 2}), empty3 = torch::zeros({0, 3}), empty = torch::zeros({0});
   const auto background = torch::tensor({0.1f, 0.2f, 0.3f});
   const auto [image, alpha] = rasterize_gaussians(empty2, empty3, empty3, empty, empty, empty, background, 5, 3);
   EXPECT_TRUE(torch::allclose(image, background.expand({3, 5, 3})));
   EXPECT_EQ(alpha.abs().max().item<float>(), 0.0f);
+  // Non-finite Gaussians draw nothing: a NaN mean, opacity or conic, an infinite radius.
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  const auto means2d = torch::tensor({nan, 2.0f, 2.0f, 1.0f, 2.0f, 1.0f, 2.0f, 1.0f}).view({4, 2});
+  auto conics = torch::full({4, 3}, 0.5f);
+  conics[2][0] = nan;
+  const auto opacities = torch::tensor({0.9f, nan, 0.9f, 0.9f}), radii = torch::tensor({3.0f, 3.0f, 3.0f, inf});
+  const auto [bad_image, bad_alpha] =
+      rasterize_gaussians(means2d, conics, torch::ones({4, 3}), opacities, torch::ones({4}), radii, background, 5, 3);
+  EXPECT_TRUE(torch::allclose(bad_image, background.expand({3, 5, 3})));
+  EXPECT_EQ(bad_alpha.abs().max().item<float>(), 0.0f);
 }
 
 TEST(GaussianRasterization, BadInputsAreErrorsNamingTheArgument) {

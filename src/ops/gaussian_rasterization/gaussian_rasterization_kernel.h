@@ -87,7 +87,8 @@ FSKIN_HOST_DEVICE Footprint<T> footprint(const RasterLaunch<T>& a, int64_t g, T 
   f.gaussian = exponential(power);
   f.raw = a.opacities[g] * f.gaussian;
   f.alpha = f.raw < T(0.99) ? f.raw : T(0.99);
-  f.counts = power <= T(0) && f.alpha >= T(1.0 / 255.0);
+  // (raw == raw: a NaN opacity draws nothing rather than the clamp's 0.99.)
+  f.counts = power <= T(0) && f.alpha >= T(1.0 / 255.0) && f.raw == f.raw;
   return f;
 }
 
