@@ -133,3 +133,21 @@ def test_rasterize_gaussians_is_a_dispatcher_op_with_gradients():
     assert torch.autograd.gradcheck(
         lambda m, q, c, o, b: torch.ops.fskin.rasterize_gaussians(m, q, c, o, depths, radii, b, 20, 18),
         (means2d, conics, colors, opacities, background))
+    # The internal forward returns the tile lists its backward walks; lists
+    # that would index outside the Gaussians are refused, not read.
+    with torch.no_grad():
+        args = (means2d, conics, colors, opacities, depths, radii, background, 20, 18)
+        image, alpha, tile_gaussians, tile_ranges = torch.ops.fskin._rasterize_gaussians_forward(*args)
+        assert tile_ranges.shape == (2 * 2 + 1,) and int(tile_ranges[-1]) == tile_gaussians.numel() > 0
+        grads = torch.ops.fskin._rasterize_gaussians_backward(
+            torch.ones_like(image), None, image, alpha, tile_gaussians, tile_ranges, means2d, conics, colors,
+            opacities, depths, radii, background, 20, 18, [True] * 5)
+        assert torch.isfinite(grads[0]).all()
+        for bad_gaussians, bad_ranges, message in (
+                (tile_gaussians + n, tile_ranges, "tile_gaussians must index the 5 Gaussians"),
+                (tile_gaussians, tile_ranges.flip(0), "tile_ranges must rise"),
+                (tile_gaussians, tile_ranges[:-1], "tile_ranges")):
+            with pytest.raises(RuntimeError, match=message):
+                torch.ops.fskin._rasterize_gaussians_backward(
+                    torch.ones_like(image), None, image, alpha, bad_gaussians, bad_ranges, means2d, conics, colors,
+                    opacities, depths, radii, background, 20, 18, [True] * 5)

@@ -7,13 +7,15 @@
 // stopping once its transmittance would fall under 1e-4 (thresholds in
 // src/ops/gaussian_rasterization/gaussian_rasterization_kernel.h).
 //
-// One op in PyTorch's dispatcher, fskin::rasterize_gaussians, with its
-// analytic backward fskin::_rasterize_gaussians_backward (one more pass over
-// each pixel's list, with its colour and transmittance taken from the
-// forward's outputs; nothing else per pixel is stored). A CPU kernel
-// (at::parallel_for over tiles) and a CUDA kernel (a thread per pixel) share
-// the per-pixel core. Written here rather than taken from the 3DGS authors'
-// rasteriser, whose licence forbids commercial use.
+// One op in PyTorch's dispatcher, fskin::rasterize_gaussians; under autograd
+// it runs fskin::_rasterize_gaussians_forward, which also returns the tile
+// lists, and its analytic backward fskin::_rasterize_gaussians_backward walks
+// those lists once more per pixel, with the pixel's colour and transmittance
+// taken from the forward's outputs (nothing else per pixel is stored). A CPU
+// kernel (at::parallel_for over tiles, Gaussian by Gaussian over the pixels
+// each can reach) and a CUDA kernel (a thread per pixel) share the
+// per-Gaussian, per-pixel steps. Written here rather than taken from the 3DGS
+// authors' rasteriser, whose licence forbids commercial use.
 //
 // Binning and sorting are LibTorch operations on the op's device; ties in
 // depth keep the Gaussians' order, so a scene renders the same on every run.

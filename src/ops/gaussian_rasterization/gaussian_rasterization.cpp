@@ -145,17 +145,49 @@ gr::RasterLaunch<T> launch_for(const Inputs& in, const TileBins& bins, int64_t w
 using RasterizeSignature = std::tuple<torch::Tensor, torch::Tensor>(
     const torch::Tensor&, const torch::Tensor&, const torch::Tensor&, const torch::Tensor&, const torch::Tensor&,
     const torch::Tensor&, const torch::Tensor&, int64_t, int64_t);
+using RasterizeForwardSignature = std::tuple<torch::Tensor, torch::Tensor, torch::Tensor, torch::Tensor>(
+    const torch::Tensor&, const torch::Tensor&, const torch::Tensor&, const torch::Tensor&, const torch::Tensor&,
+    const torch::Tensor&, const torch::Tensor&, int64_t, int64_t);
 using RasterizeBackwardSignature =
     std::tuple<torch::Tensor, torch::Tensor, torch::Tensor, torch::Tensor, torch::Tensor>(
         const torch::Tensor&, const c10::optional<torch::Tensor>&, const torch::Tensor&, const torch::Tensor&,
         const torch::Tensor&, const torch::Tensor&, const torch::Tensor&, const torch::Tensor&,
-        const torch::Tensor&, const torch::Tensor&, const torch::Tensor&, int64_t, int64_t, std::array<bool, 5>);
+        const torch::Tensor&, const torch::Tensor&, const torch::Tensor&, const torch::Tensor&,
+        const torch::Tensor&, int64_t, int64_t, std::array<bool, 5>);
+
+// Tile lists handed from the forward to the backward: checked, as the
+// backward op can be called on its own.
+TileBins given_bins(const torch::Tensor& tile_gaussians, const torch::Tensor& tile_ranges, int64_t gaussians,
+                    int64_t width, int64_t height, const torch::Device& device) {
+  const Tiles tiles = tiles_for(width, height);
+  expect_shape(tile_gaussians, {-1}, "rasterize_gaussians backward: tile_gaussians");
+  expect_shape(tile_ranges, {tiles.x * tiles.y + 1}, "rasterize_gaussians backward: tile_ranges");
+  for (const auto* t : {&tile_gaussians, &tile_ranges}) {
+    FSKIN_CHECK(t->scalar_type() == torch::kInt64 && t->device() == device,
+                "rasterize_gaussians backward: the tile lists must be int64 on the inputs' device");
+  }
+  TileBins bins{tile_gaussians.contiguous(), tile_ranges.contiguous()};
+  // The kernels index with them: a list from elsewhere must stay within its arrays.
+  const auto ranges = bins.ranges.cpu();
+  const auto* r = ranges.data_ptr<int64_t>();
+  const int64_t entries = bins.gaussians.size(0);
+  bool ordered = r[0] == 0 && r[tiles.x * tiles.y] == entries;
+  for (int64_t t = 0; ordered && t < tiles.x * tiles.y; ++t) ordered = r[t] <= r[t + 1];
+  FSKIN_CHECK(ordered, "rasterize_gaussians backward: tile_ranges must rise from 0 to the number of tile entries");
+  if (entries > 0) {
+    const auto [low, high] = torch::aminmax(bins.gaussians);
+    FSKIN_CHECK(low.item<int64_t>() >= 0 && high.item<int64_t>() < gaussians,
+                "rasterize_gaussians backward: tile_gaussians must index the {} Gaussians", gaussians);
+  }
+  return bins;
+}
 
 }  // namespace
 
-// The CPU and CUDA keys' kernel (one function: the devices share the
-// per-pixel core and its launch arguments; run_on_device picks the launch).
-std::tuple<torch::Tensor, torch::Tensor> rasterize_gaussians_kernel(
+// The CPU and CUDA keys' kernel of the forward (one function: the devices
+// share the per-pixel core and its launch arguments; run_on_device picks the
+// launch), with the tile lists it drew from, which the backward reuses.
+std::tuple<torch::Tensor, torch::Tensor, torch::Tensor, torch::Tensor> rasterize_gaussians_forward_kernel(
     const torch::Tensor& means2d, const torch::Tensor& conics, const torch::Tensor& colors,
     const torch::Tensor& opacities, const torch::Tensor& depths, const torch::Tensor& radii,
     const torch::Tensor& background, int64_t width, int64_t height) {
@@ -172,17 +204,27 @@ std::tuple<torch::Tensor, torch::Tensor> rasterize_gaussians_kernel(
         in.means2d, "rasterize_gaussians", [&] { gr::rasterize_cpu(a, false); },
         [&](void* stream) { gr::rasterize_cuda(a, false, stream); });
   });
-  return {image, alpha};
+  return {image, alpha, bins.gaussians, bins.ranges};
+}
+
+std::tuple<torch::Tensor, torch::Tensor> rasterize_gaussians_kernel(
+    const torch::Tensor& means2d, const torch::Tensor& conics, const torch::Tensor& colors,
+    const torch::Tensor& opacities, const torch::Tensor& depths, const torch::Tensor& radii,
+    const torch::Tensor& background, int64_t width, int64_t height) {
+  const auto out =
+      rasterize_gaussians_forward_kernel(means2d, conics, colors, opacities, depths, radii, background, width, height);
+  return {std::get<0>(out), std::get<1>(out)};
 }
 
 namespace {
 
-// The analytic backward, given the forward's image and alpha; output_mask
+// The analytic backward, given the forward's image, alpha and tile lists; output_mask
 // says which of (means2d, conics, colors, opacities, background) need a
 // gradient, the others come back undefined.
 std::tuple<torch::Tensor, torch::Tensor, torch::Tensor, torch::Tensor, torch::Tensor>
 rasterize_gaussians_backward_kernel(const torch::Tensor& grad_image, const c10::optional<torch::Tensor>& grad_alpha,
                                     const torch::Tensor& image, const torch::Tensor& alpha,
+                                    const torch::Tensor& tile_gaussians, const torch::Tensor& tile_ranges,
                                     const torch::Tensor& means2d, const torch::Tensor& conics,
                                     const torch::Tensor& colors, const torch::Tensor& opacities,
                                     const torch::Tensor& depths, const torch::Tensor& radii,
@@ -202,7 +244,7 @@ rasterize_gaussians_backward_kernel(const torch::Tensor& grad_image, const c10::
     expect_shape(*grad_alpha, {height, width}, "rasterize_gaussians backward: grad_alpha");
     ga = grad_alpha->to(options).contiguous();
   }
-  const TileBins bins = bin_gaussians(in.means2d, in.depths, in.radii, tiles_for(width, height));
+  const TileBins bins = given_bins(tile_gaussians, tile_ranges, n, width, height, in.means2d.device());
   const int64_t columns = gr::gradient_columns(static_cast<int>(channels));
   const bool per_entry = in.means2d.is_cpu();
   auto rows = torch::zeros({per_entry ? bins.gaussians.size(0) : n, columns}, options);
@@ -245,10 +287,13 @@ class RasterizeFunction : public torch::autograd::Function<RasterizeFunction> {
     ctx->saved_data["width"] = width;
     ctx->saved_data["height"] = height;
     at::AutoDispatchBelowADInplaceOrView below_autograd;
-    static const auto op = fskin_operator<RasterizeSignature>("fskin::rasterize_gaussians");
-    const auto [image, alpha] = op.call(means2d, conics, colors, opacities, depths, radii, background, width, height);
-    // The backward takes each pixel's colour and transmittance from the outputs.
-    ctx->save_for_backward({means2d, conics, colors, opacities, depths, radii, background, image, alpha});
+    static const auto op = fskin_operator<RasterizeForwardSignature>("fskin::_rasterize_gaussians_forward");
+    const auto [image, alpha, tile_gaussians, tile_ranges] =
+        op.call(means2d, conics, colors, opacities, depths, radii, background, width, height);
+    // The backward takes each pixel's colour and transmittance from the
+    // outputs and walks the same tile lists.
+    ctx->save_for_backward(
+        {means2d, conics, colors, opacities, depths, radii, background, image, alpha, tile_gaussians, tile_ranges});
     return {image, alpha};
   }
 
@@ -263,7 +308,7 @@ class RasterizeFunction : public torch::autograd::Function<RasterizeFunction> {
         grad_outputs[1].defined() ? c10::optional<torch::Tensor>(grad_outputs[1]) : c10::nullopt;
     static const auto op = fskin_operator<RasterizeBackwardSignature>("fskin::_rasterize_gaussians_backward");
     const auto [g_means, g_conics, g_colors, g_opacities, g_background] =
-        op.call(grad_image, grad_alpha, s[7], s[8], s[0], s[1], s[2], s[3], s[4], s[5], s[6], width, height,
+        op.call(grad_image, grad_alpha, s[7], s[8], s[9], s[10], s[0], s[1], s[2], s[3], s[4], s[5], s[6], width, height,
                 {ctx->needs_input_grad(0), ctx->needs_input_grad(1), ctx->needs_input_grad(2),
                  ctx->needs_input_grad(3), ctx->needs_input_grad(6)});
     return {g_means, g_conics, g_colors, g_opacities, torch::Tensor(), torch::Tensor(), g_background,
@@ -285,6 +330,7 @@ std::tuple<torch::Tensor, torch::Tensor> rasterize_gaussians_autograd(
 std::tuple<torch::Tensor, torch::Tensor, torch::Tensor, torch::Tensor, torch::Tensor>
 rasterize_gaussians_backward_autograd(const torch::Tensor& grad_image, const c10::optional<torch::Tensor>& grad_alpha,
                                       const torch::Tensor& image, const torch::Tensor& alpha,
+                                      const torch::Tensor& tile_gaussians, const torch::Tensor& tile_ranges,
                                       const torch::Tensor& means2d, const torch::Tensor& conics,
                                       const torch::Tensor& colors, const torch::Tensor& opacities,
                                       const torch::Tensor& depths, const torch::Tensor& radii,
@@ -298,7 +344,7 @@ rasterize_gaussians_backward_autograd(const torch::Tensor& grad_image, const c10
               "rasterize_gaussians: double backward (create_graph=True) is not supported");
   at::AutoDispatchBelowADInplaceOrView below_autograd;
   static const auto op = fskin_operator<RasterizeBackwardSignature>("fskin::_rasterize_gaussians_backward");
-  return op.call(grad_image, grad_alpha, image, alpha, means2d, conics, colors, opacities, depths, radii, background,
+  return op.call(grad_image, grad_alpha, image, alpha, tile_gaussians, tile_ranges, means2d, conics, colors, opacities, depths, radii, background,
                  width, height, output_mask);
 }
 
@@ -309,20 +355,26 @@ TORCH_LIBRARY_FRAGMENT(fskin, m) {
       "rasterize_gaussians(Tensor means2d, Tensor conics, Tensor colors, Tensor opacities, Tensor depths, "
       "Tensor radii, Tensor background, int width, int height) -> (Tensor image, Tensor alpha)");
   m.def(
+      "_rasterize_gaussians_forward(Tensor means2d, Tensor conics, Tensor colors, Tensor opacities, Tensor depths, "
+      "Tensor radii, Tensor background, int width, int height) -> (Tensor image, Tensor alpha, "
+      "Tensor tile_gaussians, Tensor tile_ranges)");
+  m.def(
       "_rasterize_gaussians_backward(Tensor grad_image, Tensor? grad_alpha, Tensor image, Tensor alpha, "
-      "Tensor means2d, Tensor conics, "
+      "Tensor tile_gaussians, Tensor tile_ranges, Tensor means2d, Tensor conics, "
       "Tensor colors, Tensor opacities, Tensor depths, Tensor radii, Tensor background, int width, int height, "
       "bool[5] output_mask) -> (Tensor, Tensor, Tensor, Tensor, Tensor)");
 }
 
 TORCH_LIBRARY_IMPL(fskin, CPU, m) {
   m.impl("rasterize_gaussians", TORCH_FN(rasterize_gaussians_kernel));
+  m.impl("_rasterize_gaussians_forward", TORCH_FN(rasterize_gaussians_forward_kernel));
   m.impl("_rasterize_gaussians_backward", TORCH_FN(rasterize_gaussians_backward_kernel));
 }
 
 #ifdef FSKIN_WITH_CUDA
 TORCH_LIBRARY_IMPL(fskin, CUDA, m) {
   m.impl("rasterize_gaussians", TORCH_FN(rasterize_gaussians_kernel));
+  m.impl("_rasterize_gaussians_forward", TORCH_FN(rasterize_gaussians_forward_kernel));
   m.impl("_rasterize_gaussians_backward", TORCH_FN(rasterize_gaussians_backward_kernel));
 }
 #endif

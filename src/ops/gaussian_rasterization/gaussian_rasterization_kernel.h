@@ -92,40 +92,43 @@ FSKIN_HOST_DEVICE Footprint<T> footprint(const RasterLaunch<T>& a, int64_t g, T 
   return f;
 }
 
-// Front to back over the tile entries [begin, end) of pixel (x, y)'s tile:
-// its colour without the background and its final transmittance. (The CPU
-// kernel passes a launch whose arrays are its tile's entries packed in order,
-// the CUDA kernel the global ones with the tile's range.)
+// Front to back, one Gaussian at a time: g's step in a pixel's blend given its
+// footprint there. Returns false when the pixel stops (before the Gaussian
+// that would take T under 1e-4); the pixel then takes no further Gaussians.
 template <typename T>
-FSKIN_HOST_DEVICE T blend_pixel(const RasterLaunch<T>& a, int64_t begin, int64_t end, int x, int y,
-                                T color[kMaxChannels]) {
-  const T px = T(x), py = T(y);
-  for (int k = 0; k < a.channels; ++k) color[k] = T(0);
-  T transmittance = T(1);
-  for (int64_t e = begin; e < end; ++e) {
-    const int64_t g = a.tile_gaussians[e];
-    const Footprint<T> f = footprint(a, g, px, py);
-    if (!f.counts) continue;
-    const T next = transmittance * (T(1) - f.alpha);
-    if (next < T(1e-4)) break;
-    const T w = f.alpha * transmittance;
-    for (int k = 0; k < a.channels; ++k) color[k] += w * a.colors[g * a.channels + k];
-    transmittance = next;
-  }
-  return transmittance;
+FSKIN_HOST_DEVICE bool blend_step(const RasterLaunch<T>& a, int64_t g, const Footprint<T>& f, T& transmittance,
+                                  T* color) {
+  if (!f.counts) return true;
+  const T next = transmittance * (T(1) - f.alpha);
+  if (next < T(1e-4)) return false;
+  const T w = f.alpha * transmittance;
+  for (int k = 0; k < a.channels; ++k) color[k] += w * a.colors[g * a.channels + k];
+  transmittance = next;
+  return true;
 }
 
+// Pixel p's colour and alpha from its blended colour and final transmittance.
 template <typename T>
-FSKIN_HOST_DEVICE void rasterize_pixel(const RasterLaunch<T>& a, int64_t begin, int64_t end, int x, int y) {
-  T color[kMaxChannels];
-  const T final_transmittance = blend_pixel(a, begin, end, x, y, color);
-  const int64_t p = static_cast<int64_t>(y) * a.width + x;
+FSKIN_HOST_DEVICE void write_pixel(const RasterLaunch<T>& a, int64_t p, const T* color, T final_transmittance) {
   for (int k = 0; k < a.channels; ++k) a.image[p * a.channels + k] = color[k] + final_transmittance * a.background[k];
   a.alpha[p] = T(1) - final_transmittance;
 }
 
-// The pixel's share of every gradient, handed to add(entry, gaussian, column,
-// value) per Gaussian it blends. With C the colour without background, P_i
+// Over the tile entries [begin, end) of pixel (x, y)'s tile (the CUDA kernel:
+// a thread per pixel).
+template <typename T>
+FSKIN_HOST_DEVICE void rasterize_pixel(const RasterLaunch<T>& a, int64_t begin, int64_t end, int x, int y) {
+  T color[kMaxChannels];
+  for (int k = 0; k < a.channels; ++k) color[k] = T(0);
+  T transmittance = T(1);
+  for (int64_t e = begin; e < end; ++e) {
+    const int64_t g = a.tile_gaussians[e];
+    if (!blend_step(a, g, footprint(a, g, T(x), T(y)), transmittance, color)) break;
+  }
+  write_pixel(a, static_cast<int64_t>(y) * a.width + x, color, transmittance);
+}
+
+// The backward, pixel by pixel. With C the colour without background, P_i
 // its prefix up to and including i, gC / gA the output gradients:
 //   dL/dc_i = alpha_i T_i gC,
 //   dL/dalpha_i = T_i (c_i . gC) - ((C - P_i) . gC + T_final (bg . gC - gA)) / (1 - alpha_i),
@@ -133,55 +136,100 @@ FSKIN_HOST_DEVICE void rasterize_pixel(const RasterLaunch<T>& a, int64_t begin, 
 // then through alpha_i = o_i exp(power_i) (no gradient where the 0.99 clamp
 // holds) to the opacity, the mean and the conic. C and T_final come from
 // the forward's outputs (a.image, a.alpha): one pass over the list.
+//
+// What pixel p's backward needs before its first Gaussian: C (`total`, C
+// values) and the tail T_final (bg . gC - gA); it also writes dL/dbg's share.
+template <typename T>
+FSKIN_HOST_DEVICE T begin_pixel_backward(const RasterLaunch<T>& a, int64_t p, T* total) {
+  const T final_transmittance = T(1) - a.alpha[p];
+  const T* gc = a.grad_image + p * a.channels;
+  T background_dot = T(0);
+  for (int k = 0; k < a.channels; ++k) {
+    total[k] = a.image[p * a.channels + k] - final_transmittance * a.background[k];
+    background_dot += a.background[k] * gc[k];
+    a.grad_background[p * a.channels + k] = final_transmittance * gc[k];
+  }
+  const T ga = a.grad_alpha ? a.grad_alpha[p] : T(0);
+  return final_transmittance * (background_dot - ga);
+}
+
+// Gaussian g's step in pixel p's backward: hands its share of each gradient
+// to add(column, value) and advances the pixel's transmittance and prefix.
+// Returns false when the pixel stops, as blend_step does.
+template <typename T, typename Add>
+FSKIN_HOST_DEVICE bool backward_step(const RasterLaunch<T>& a, int64_t p, int64_t g, const Footprint<T>& f,
+                                     const T* total, T tail, T& transmittance, T* prefix, Add&& add) {
+  if (!f.counts) return true;
+  const T next = transmittance * (T(1) - f.alpha);
+  if (next < T(1e-4)) return false;
+  const T w = f.alpha * transmittance;
+  const T* c = a.colors + g * a.channels;
+  const T* gc = a.grad_image + p * a.channels;
+  T own = T(0), after = T(0);
+  for (int k = 0; k < a.channels; ++k) {
+    prefix[k] += w * c[k];
+    own += c[k] * gc[k];
+    after += (total[k] - prefix[k]) * gc[k];
+    add(kGradColor + k, w * gc[k]);
+  }
+  const T grad_alpha = transmittance * own - (after + tail) / (T(1) - f.alpha);
+  transmittance = next;
+  if (f.raw > T(0.99)) return true;  // clamped: alpha does not move with o or the footprint
+  add(kGradOpacity, grad_alpha * f.gaussian);
+  const T grad_power = grad_alpha * f.raw;
+  const T* q = a.conics + 3 * g;
+  // power = -1/2 (a dx^2 + c dy^2) - b dx dy with d = pixel - mean.
+  add(kGradMean + 0, grad_power * (q[0] * f.dx + q[1] * f.dy));
+  add(kGradMean + 1, grad_power * (q[2] * f.dy + q[1] * f.dx));
+  add(kGradConic + 0, grad_power * T(-0.5) * f.dx * f.dx);
+  add(kGradConic + 1, -grad_power * f.dx * f.dy);
+  add(kGradConic + 2, grad_power * T(-0.5) * f.dy * f.dy);
+  return true;
+}
+
 template <typename T, typename Add>
 FSKIN_HOST_DEVICE void rasterize_pixel_backward(const RasterLaunch<T>& a, int64_t begin, int64_t end, int x, int y,
                                                 Add&& add) {
   const int64_t p = static_cast<int64_t>(y) * a.width + x;
-  const T final_transmittance = T(1) - a.alpha[p];
-  T total[kMaxChannels];
-  for (int k = 0; k < a.channels; ++k) {
-    total[k] = a.image[p * a.channels + k] - final_transmittance * a.background[k];
-  }
-  const T* gc = a.grad_image + p * a.channels;
-  const T ga = a.grad_alpha ? a.grad_alpha[p] : T(0);
-  T background_dot = T(0);
-  for (int k = 0; k < a.channels; ++k) {
-    background_dot += a.background[k] * gc[k];
-    a.grad_background[p * a.channels + k] = final_transmittance * gc[k];
-  }
-  const T tail = final_transmittance * (background_dot - ga);
-  const T px = T(x), py = T(y);
-  T prefix[kMaxChannels];
+  T total[kMaxChannels], prefix[kMaxChannels];
+  const T tail = begin_pixel_backward(a, p, total);
   for (int k = 0; k < a.channels; ++k) prefix[k] = T(0);
   T transmittance = T(1);
   for (int64_t e = begin; e < end; ++e) {
     const int64_t g = a.tile_gaussians[e];
-    const Footprint<T> f = footprint(a, g, px, py);
-    if (!f.counts) continue;
-    const T next = transmittance * (T(1) - f.alpha);
-    if (next < T(1e-4)) break;
-    const T w = f.alpha * transmittance;
-    const T* c = a.colors + g * a.channels;
-    T own = T(0), after = T(0);
-    for (int k = 0; k < a.channels; ++k) {
-      prefix[k] += w * c[k];
-      own += c[k] * gc[k];
-      after += (total[k] - prefix[k]) * gc[k];
-      add(e, g, kGradColor + k, w * gc[k]);
-    }
-    const T grad_alpha = transmittance * own - (after + tail) / (T(1) - f.alpha);
-    transmittance = next;
-    if (f.raw > T(0.99)) continue;  // clamped: alpha does not move with o or the footprint
-    add(e, g, kGradOpacity, grad_alpha * f.gaussian);
-    const T grad_power = grad_alpha * f.raw;
-    const T* q = a.conics + 3 * g;
-    // power = -1/2 (a dx^2 + c dy^2) - b dx dy with d = pixel - mean.
-    add(e, g, kGradMean + 0, grad_power * (q[0] * f.dx + q[1] * f.dy));
-    add(e, g, kGradMean + 1, grad_power * (q[2] * f.dy + q[1] * f.dx));
-    add(e, g, kGradConic + 0, grad_power * T(-0.5) * f.dx * f.dx);
-    add(e, g, kGradConic + 1, -grad_power * f.dx * f.dy);
-    add(e, g, kGradConic + 2, grad_power * T(-0.5) * f.dy * f.dy);
+    const bool going = backward_step(a, p, g, footprint(a, g, T(x), T(y)), total, tail, transmittance, prefix,
+                                     [&](int column, T value) { add(e, g, column, value); });
+    if (!going) break;
   }
+}
+
+// The pixels where Gaussian g can count lie within half_x / half_y pixels of
+// its mean: counting needs o exp(power) >= 1/255, i.e. d^T Q d <= 2 ln(255 o),
+// an ellipse whose box has half-widths sqrt(k Q^-1_xx), sqrt(k Q^-1_yy)
+// (widened by 0.1 % for rounding). Negative half-widths: no pixel counts.
+// Returns false where there is no such bound (a conic that is not positive
+// definite, an opacity above 1 or not finite): then every pixel is tested.
+template <typename T>
+FSKIN_HOST_DEVICE bool footprint_reach(const RasterLaunch<T>& a, int64_t g, T& half_x, T& half_y) {
+  const T o = a.opacities[g];
+  const T* q = a.conics + 3 * g;
+  const T det = q[0] * q[2] - q[1] * q[1];
+  if (!(o <= T(1)) || !(q[0] > T(0)) || !(q[2] > T(0)) || !(det > T(0))) return false;
+  if (!(det < T(1e30)) || !(q[0] < T(1e30)) || !(q[2] < T(1e30))) return false;
+  if (T(255) * o < T(1)) {
+    half_x = half_y = T(-1);
+    return true;
+  }
+#if defined(__CUDA_ARCH__)
+  const T k = T(2) * log(T(255) * o) * T(1.001) + T(1e-3);
+  half_x = sqrt(k * q[2] / det);
+  half_y = sqrt(k * q[0] / det);
+#else
+  const T k = T(2) * std::log(T(255) * o) * T(1.001) + T(1e-3);
+  half_x = std::sqrt(k * q[2] / det);
+  half_y = std::sqrt(k * q[0] / det);
+#endif
+  return true;
 }
 
 template <typename T>
