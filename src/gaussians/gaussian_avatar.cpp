@@ -13,6 +13,32 @@
 #include "fskin/skeleton/lbs.h"
 
 namespace fskin {
+namespace {
+
+// The character's vertex weights at points on its faces, interpolated with the
+// points' barycentric coordinates [M, J] float32 (rows renormalised).
+torch::Tensor surface_point_weights(const RiggedMesh& character, const torch::Tensor& points,
+                                    const torch::Tensor& faces) {
+  const auto v = character.mesh.vertices.to(torch::kFloat64);
+  const auto corners = character.mesh.faces.index_select(0, faces);  // [M, 3]
+  const auto a = v.index_select(0, corners.select(1, 0)), b = v.index_select(0, corners.select(1, 1)),
+             c = v.index_select(0, corners.select(1, 2));
+  const auto p = points.to(torch::kFloat64);
+  // Barycentric coordinates by the normal equations of p - a = s (b - a) + t (c - a).
+  const auto e1 = b - a, e2 = c - a, d = p - a;
+  const auto dot = [](const torch::Tensor& x, const torch::Tensor& y) { return (x * y).sum(1); };
+  const auto d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), d1 = dot(d, e1), d2 = dot(d, e2);
+  const auto det = (d11 * d22 - d12 * d12).clamp_min(1e-300);
+  const auto s = ((d22 * d1 - d12 * d2) / det).clamp(0, 1), t = ((d11 * d2 - d12 * d1) / det).clamp(0, 1);
+  const auto w = character.weights.to(torch::kFloat64);
+  auto blended = (1 - s - t).clamp_min(0).unsqueeze(1) * w.index_select(0, corners.select(1, 0)) +
+                 s.unsqueeze(1) * w.index_select(0, corners.select(1, 1)) +
+                 t.unsqueeze(1) * w.index_select(0, corners.select(1, 2));
+  blended = blended.clamp_min(0);
+  return (blended / blended.sum(1, true).clamp_min(1e-12)).to(torch::kFloat32);
+}
+
+}  // namespace
 
 void GaussianAvatarOptions::validate() const {
   FSKIN_CHECK(initial_gaussians >= 1 && initial_gaussians <= 10'000'000,
@@ -20,6 +46,8 @@ void GaussianAvatarOptions::validate() const {
   FSKIN_CHECK(sh_degree >= 0 && sh_degree <= 3, "gaussian avatar: sh_degree must be 0 to 3, got {}", sh_degree);
   FSKIN_CHECK(initial_opacity > 0 && initial_opacity < 1,
               "gaussian avatar: initial_opacity must be within (0, 1), got {}", initial_opacity);
+  FSKIN_CHECK(skinning_source == "surface" || skinning_source == "grid",
+              "gaussian avatar: the skinning source must be \"surface\" or \"grid\", got \"{}\"", skinning_source);
   FSKIN_CHECK(skinning_grid_resolution >= 4 && skinning_grid_resolution <= 512,
               "gaussian avatar: skinning grid resolution must be within 4..512, got {}", skinning_grid_resolution);
 }
@@ -29,12 +57,20 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
   options_.validate();
   character.validate("gaussian avatar: character");
   const auto vertices = character.mesh.vertices.to(torch::kFloat32);
-  skinning_ = diffuse_weights_to_grid(
-      vertices, character.weights.to(torch::kFloat32),
-      VoxelBox::fit(vertices.to(torch::kFloat64), options_.skinning_grid_resolution));
+  bones_ = character.weights.size(1);
+  const bool from_grid = options_.skinning_source == "grid";
+  if (from_grid) {
+    skinning_ = diffuse_weights_to_grid(
+        vertices, character.weights.to(torch::kFloat32),
+        VoxelBox::fit(vertices.to(torch::kFloat64), options_.skinning_grid_resolution));
+  }
   Rng rng(seed);
   const int64_t n = options_.initial_gaussians;
-  const auto points = sample_surface(character.mesh, n, rng).to(torch::kFloat32);
+  const auto samples = sample_surface_with_faces(character.mesh, n, rng);
+  const auto points = samples.points.to(torch::kFloat32);
+  surface_weights_ = register_buffer(
+      "surface_weights", from_grid ? torch::zeros({n, 0})
+                                   : surface_point_weights(character, samples.points, samples.faces));
   // Faces' total area over N: each sample's share of the surface, whose square root is their spacing.
   const auto v = character.mesh.vertices.to(torch::kFloat64);
   const auto f = character.mesh.faces;
@@ -54,10 +90,12 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
 
 torch::Tensor GaussianAvatarImpl::sh() const { return torch::cat({sh_dc_, sh_rest_}, 1); }
 
-torch::Tensor GaussianAvatarImpl::skinning_weights() { return skinning_->weights(means_); }
+torch::Tensor GaussianAvatarImpl::skinning_weights() {
+  return skinning_ ? skinning_->weights(means_) : surface_weights_;
+}
 
 PosedGaussians GaussianAvatarImpl::pose(const torch::Tensor& bones) {
-  expect_shape(bones, {skinning_->num_bones(), 4, 4}, "gaussian avatar: bone transforms");
+  expect_shape(bones, {bones_, 4, 4}, "gaussian avatar: bone transforms");
   const auto transforms = blend_transforms(skinning_weights(), bones.to(means_.options()).unsqueeze(0))[0];
   PosedGaussians posed;
   posed.linear = transforms.narrow(1, 0, 3).narrow(2, 0, 3);
@@ -90,7 +128,7 @@ GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const Pinh
 
 void GaussianAvatarImpl::replace_gaussians(torch::Tensor means, torch::Tensor log_scales, torch::Tensor rotations,
                                            torch::Tensor opacity_logits, torch::Tensor sh_dc,
-                                           torch::Tensor sh_rest) {
+                                           torch::Tensor sh_rest, torch::Tensor surface_weights) {
   const int64_t n = means.size(0);
   expect_shape(means, {n, 3}, "gaussian avatar: means");
   expect_shape(log_scales, {n, 3}, "gaussian avatar: log_scales");
@@ -98,6 +136,7 @@ void GaussianAvatarImpl::replace_gaussians(torch::Tensor means, torch::Tensor lo
   expect_shape(opacity_logits, {n}, "gaussian avatar: opacity_logits");
   expect_shape(sh_dc, {n, 1, 3}, "gaussian avatar: sh_dc");
   expect_shape(sh_rest, {n, sh_rest_.size(1), 3}, "gaussian avatar: sh_rest");
+  expect_shape(surface_weights, {n, surface_weights_.size(1)}, "gaussian avatar: surface_weights");
   // set_data keeps each parameter's identity (the module's registry and the
   // optimiser's parameter lists still hold it) while its size changes; the
   // optimiser's per-parameter state is the caller's to resize. Gradients of
@@ -109,6 +148,7 @@ void GaussianAvatarImpl::replace_gaussians(torch::Tensor means, torch::Tensor lo
   opacity_logits_.set_data(opacity_logits.detach().clone());
   sh_dc_.set_data(sh_dc.detach().clone());
   sh_rest_.set_data(sh_rest.detach().clone());
+  surface_weights_.set_data(surface_weights.detach().clone());
   for (auto* p : {&means_, &log_scales_, &rotations_, &opacity_logits_, &sh_dc_, &sh_rest_}) {
     p->mutable_grad() = torch::Tensor();
   }

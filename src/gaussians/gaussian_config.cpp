@@ -37,6 +37,7 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/model/gaussians/initial", avatar.initial_gaussians),
     FSKIN_GAUSSIAN_FIELD("/model/gaussians/sh_degree", avatar.sh_degree),
     FSKIN_GAUSSIAN_FIELD("/model/gaussians/initial_opacity", avatar.initial_opacity),
+    FSKIN_GAUSSIAN_FIELD("/model/skinning/source", avatar.skinning_source),
     FSKIN_GAUSSIAN_FIELD("/model/skinning/grid_resolution", avatar.skinning_grid_resolution),
     FSKIN_GAUSSIAN_FIELD("/density/start", density.start),
     FSKIN_GAUSSIAN_FIELD("/density/stop_fraction", density.stop_fraction),
@@ -109,6 +110,8 @@ GaussianTrainOptions read_gaussian_run_config(const std::string& path, const std
   GaussianTrainOptions base;
   base.out_dir = run_dir;
   base.data_dir = "(the run's dataset)";  // every run file names its own
+  // Runs written before the skinning source existed read the grid.
+  if (!document.contains(json::json_pointer("/model/skinning/source"))) base.avatar.skinning_source = "grid";
   return gaussian_options_from_document(document, base, path);
 }
 

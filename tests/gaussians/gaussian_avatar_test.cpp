@@ -8,6 +8,8 @@
 
 #include <Eigen/Geometry>
 
+#include <string>
+
 #include "fskin/gaussians/spherical_harmonics.h"
 #include "fskin/skeleton/lbs.h"
 #include "radiance/tiny_image_dataset.h"
@@ -27,25 +29,56 @@ TEST(GaussianAvatar, GaussiansOnTheVerticesFollowTheMeshsLinearBlendSkinning) {
   const ImageDataset dataset(testing::tiny_image_dataset().dir);
   const auto& character = dataset.character();
   const auto split = dataset.load_split("train");
-  GaussianAvatar avatar(character, small_options(100, 0), 0);
-  const auto vertices = character.mesh.vertices.to(torch::kFloat32);
-  const int64_t n = vertices.size(0);
-  avatar->replace_gaussians(vertices, torch::zeros({n, 3}), torch::tensor({1.0f, 0.0f, 0.0f, 0.0f}).repeat({n, 1}),
-                            torch::zeros({n}), torch::zeros({n, 1, 3}), torch::zeros({n, 0, 3}));
-  EXPECT_EQ(avatar->size(), n);
-  const auto height = (vertices.select(1, 1).max() - vertices.select(1, 1).min()).item<double>();
-  for (int64_t frame = 0; frame < split.size(); ++frame) {
-    const auto bones = split.bone_transforms[frame];
-    torch::NoGradGuard no_grad;
-    const auto posed = avatar->pose(bones);
-    const auto expected = linear_blend_skinning(vertices.unsqueeze(0), character.weights.to(torch::kFloat32),
-                                                bones.unsqueeze(0))[0];
-    const auto distance = (posed.means - expected).norm(2, 1);
-    // The grid's weights are the mesh's at the surface up to trilinear
-    // interpolation: vertices land within a small share of the height.
-    EXPECT_LT(distance.mean().item<double>(), 0.002 * height) << "frame " << frame;
-    EXPECT_LT(distance.max().item<double>(), 0.03 * height) << "frame " << frame;
+  for (const std::string source : {"surface", "grid"}) {
+    auto options = small_options(100, 0);
+    options.skinning_source = source;
+    GaussianAvatar avatar(character, options, 0);
+    const auto vertices = character.mesh.vertices.to(torch::kFloat32);
+    const int64_t n = vertices.size(0);
+    // The surface source: each Gaussian carries its vertex's own weights.
+    const auto weights = source == "surface" ? character.weights.to(torch::kFloat32) : torch::zeros({n, 0});
+    avatar->replace_gaussians(vertices, torch::zeros({n, 3}),
+                              torch::tensor({1.0f, 0.0f, 0.0f, 0.0f}).repeat({n, 1}), torch::zeros({n}),
+                              torch::zeros({n, 1, 3}), torch::zeros({n, 0, 3}), weights);
+    EXPECT_EQ(avatar->size(), n);
+    const auto height = (vertices.select(1, 1).max() - vertices.select(1, 1).min()).item<double>();
+    for (int64_t frame = 0; frame < split.size(); ++frame) {
+      const auto bones = split.bone_transforms[frame];
+      torch::NoGradGuard no_grad;
+      const auto posed = avatar->pose(bones);
+      const auto expected = linear_blend_skinning(vertices.unsqueeze(0), character.weights.to(torch::kFloat32),
+                                                  bones.unsqueeze(0))[0];
+      const auto distance = (posed.means - expected).norm(2, 1);
+      if (source == "surface") {
+        EXPECT_LT(distance.max().item<double>(), 1e-5 * height) << "frame " << frame;
+      } else {
+        // The grid's weights are the mesh's at the surface up to trilinear
+        // interpolation: vertices land within a small share of the height.
+        EXPECT_LT(distance.mean().item<double>(), 0.002 * height) << "frame " << frame;
+        EXPECT_LT(distance.max().item<double>(), 0.03 * height) << "frame " << frame;
+      }
+    }
   }
+}
+
+TEST(GaussianAvatar, SurfaceWeightsInterpolateTheVertexWeightsAtEachSample) {
+  // Weights that encode each vertex's position (affine in it): interpolated
+  // barycentrically at a point of a face, they encode that point.
+  const ImageDataset dataset(testing::tiny_image_dataset().dir);
+  RiggedMesh character = dataset.character();
+  const auto v = character.mesh.vertices.to(torch::kFloat64);
+  const auto low = std::get<0>(v.min(0)), extent = std::get<0>(v.max(0)) - low;
+  const auto q = (v - low) / extent * 0.25;  // [V, 3] in [0, 0.25]
+  auto weights = torch::zeros({v.size(0), character.num_joints()}, torch::kFloat64);
+  weights.narrow(1, 0, 3).copy_(q);
+  weights.select(1, 3).copy_(1 - q.sum(1));
+  character.weights = weights;
+  GaussianAvatar avatar(character, small_options(2000, 0), 5);
+  const auto w = avatar->skinning_weights().to(torch::kFloat64);
+  const auto recovered = low + w.narrow(1, 0, 3) * 4 * extent;
+  const double size = extent.max().item<double>();
+  EXPECT_LT((recovered - avatar->means().to(torch::kFloat64)).abs().max().item<double>(), 1e-4 * size);
+  EXPECT_TRUE(torch::allclose(w.sum(1), torch::ones({2000}, torch::kFloat64), 1e-5, 1e-5));
 }
 
 TEST(GaussianAvatar, MovingTheBodyRigidlyRendersAsMovingTheCameraTheOtherWay) {
@@ -111,6 +144,9 @@ TEST(GaussianAvatar, StartsOnTheSurfaceAndRejectsBadOptions) {
   EXPECT_TRUE(torch::equal(avatar->means(), again->means()));
   auto bad = small_options(10, 4);
   testing::expect_error([&] { GaussianAvatar(character, bad, 0); }, {"sh_degree", "0 to 3"});
+  auto bad_source = small_options(10, 1);
+  bad_source.skinning_source = "mesh";
+  testing::expect_error([&] { GaussianAvatar(character, bad_source, 0); }, {"skinning source", "\"mesh\""});
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <torch/torch.h>
 
 #include <filesystem>
+#include <fstream>
 
 #include "fskin/engine/run_directory.h"
 #include "fskin/gaussians/density_control.h"
@@ -63,6 +64,7 @@ TEST(GaussianDensityControl, ClonesSplitsAndPrunesWithTheirAdamMoments) {
   statistics.add(grad, torch::ones({40}), 40, 40);
   const auto before_means = avatar->means().detach().clone();
   const auto before_sh = avatar->sh_dc().detach().clone();
+  const auto before_weights = avatar->surface_weights().clone();
   DensityControlOptions control;
   const auto change = densify_and_prune(*avatar, statistics, adam, control, size);
   EXPECT_EQ(change.cloned, 10);
@@ -75,6 +77,12 @@ TEST(GaussianDensityControl, ClonesSplitsAndPrunesWithTheirAdamMoments) {
   EXPECT_TRUE(torch::equal(avatar->means().narrow(0, 0, 25), before_means.index_select(0, kept)));
   EXPECT_TRUE(torch::equal(avatar->means().narrow(0, 25, 10), before_means.narrow(0, 0, 10)));
   EXPECT_TRUE(torch::equal(avatar->sh_dc().narrow(0, 35, 10), before_sh.narrow(0, 10, 10)));
+  // Clones and halves carry their parent's skinning weights.
+  ASSERT_EQ(avatar->surface_weights().size(0), 55);
+  EXPECT_TRUE(torch::equal(avatar->surface_weights().narrow(0, 0, 25), before_weights.index_select(0, kept)));
+  EXPECT_TRUE(torch::equal(avatar->surface_weights().narrow(0, 25, 10), before_weights.narrow(0, 0, 10)));
+  EXPECT_TRUE(torch::equal(avatar->surface_weights().narrow(0, 35, 10), before_weights.narrow(0, 10, 10)));
+  EXPECT_TRUE(torch::equal(avatar->surface_weights().narrow(0, 45, 10), before_weights.narrow(0, 10, 10)));
   const auto half_scales = torch::exp(avatar->log_scales().narrow(0, 35, 20));
   // (Adam's one step moved the log-scales by about its learning rate.)
   EXPECT_TRUE(torch::allclose(half_scales, torch::full_like(half_scales, 0.05 * size / 1.6), 2e-3, 0.0));
@@ -157,6 +165,15 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
                         {"--set model.gaussians.colour=3", "unknown key"});
   testing::expect_error([&] { configure_gaussian_options(base, "", {"model.gaussians.sh_degree=5"}); },
                         {"sh_degree", "0 to 3"});
+  EXPECT_EQ(changed.avatar.skinning_source, "surface");
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"model.skinning.source=bones"}); },
+                        {"--set model.skinning.source=bones", "\"surface\" or \"grid\""});
+  // A run file from before the skinning source existed reads the grid, as it was trained.
+  const auto dir = testing::temp_dir("gaussian_run_without_source");
+  auto old_document = gaussian_run_document(changed);
+  old_document["model"]["skinning"].erase("source");
+  std::ofstream(dir / "run.json") << old_document.dump();
+  EXPECT_EQ(read_gaussian_run_config((dir / "run.json").string(), dir.string()).avatar.skinning_source, "grid");
   testing::expect_error([&] { TrainedGaussianAvatar::load(testing::temp_dir("not_a_gaussian_run").string()); },
                         {"not a Gaussian avatar run"});
 }

@@ -2,11 +2,18 @@
 // An animatable avatar of articulated 3-D Gaussians (issue 37; the idea of
 // 3DGS-Avatar, GART and GauHuman, for any skeleton): canonical Gaussians
 // (mean, scale, rotation, opacity, colour as spherical harmonics) posed by
-// forward linear blend skinning, no root finding. A Gaussian's weights are
-// the character's skinning weights diffused into a voxel grid
-// (fields/preset_skinning_field.h, as the volume avatar uses) read at its
-// canonical mean, so a Gaussian that moves or is cloned takes the weights of
-// where it is. With T = sum_j w_j B_j (SNARF eq. 4) and A its 3 x 3 part:
+// forward linear blend skinning, no root finding. A Gaussian's skinning
+// weights come from one of two sources (`skinning_source`):
+//  - "surface": its own, the character's vertex weights interpolated at the
+//    mesh point it was sampled on (barycentric), carried by the Gaussians that
+//    clone or split from it: the rig's weights exactly where the surface is,
+//    and no field to read per step (GaussianAvatar and SplattingAvatar embed
+//    their Gaussians on the template mesh likewise);
+//  - "grid": the character's weights diffused into a voxel grid
+//    (fields/preset_skinning_field.h, as the volume avatar uses) read at the
+//    Gaussian's current canonical mean, so a Gaussian takes the weights of
+//    where it moves (3DGS-Avatar, GART).
+// With T = sum_j w_j B_j (SNARF eq. 4) and A its 3 x 3 part:
 //   mean' = T mean,  Sigma' = A Sigma A^T
 // (the exact image of the Gaussian under the affine map T; A is a rotation
 // where one bone dominates). Spherical harmonics are evaluated in canonical
@@ -16,6 +23,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <string>
 
 #include "fskin/fields/voxel_skinning_field.h"
 #include "fskin/geometry/pinhole_camera.h"
@@ -27,7 +35,8 @@ struct GaussianAvatarOptions {
   int64_t initial_gaussians = 20000;  // area-uniform on the canonical mesh
   int64_t sh_degree = 1;              // 0-3
   double initial_opacity = 0.5;
-  int64_t skinning_grid_resolution = 64;  // voxels along the canonical box's longest side
+  std::string skinning_source = "surface";  // "surface" | "grid" (above)
+  int64_t skinning_grid_resolution = 64;     // "grid": voxels along the canonical box's longest side
   void validate() const;
 };
 
@@ -76,8 +85,9 @@ class GaussianAvatarImpl : public torch::nn::Module {
   const torch::Tensor& sh_rest() const { return sh_rest_; }
   torch::Tensor sh() const;  // both, [N, (degree + 1)^2, 3]
 
-  // Skinning weights [N, J] at the canonical means.
+  // Skinning weights [N, J] of the Gaussians (rows sum to 1).
   torch::Tensor skinning_weights();
+  int64_t num_bones() const { return bones_; }
   // The Gaussians in the frame of bones [J, 4, 4] (canonical -> posed).
   PosedGaussians pose(const torch::Tensor& bones);
   // A picture of the posed Gaussians [H, W, 3] and its alpha over a uniform
@@ -86,18 +96,25 @@ class GaussianAvatarImpl : public torch::nn::Module {
   GaussianRender render(const torch::Tensor& bones, const PinholeCamera& camera,
                         const std::array<double, 3>& background);
 
-  // Replaces every per-Gaussian parameter by a gathered, extended or filtered
+  // The per-Gaussian weights of the "surface" source [N, J] (a buffer, not
+  // trained); [N, 0] with the "grid" source. Density control gathers its rows
+  // with the parameters'.
+  torch::Tensor& surface_weights() { return surface_weights_; }
+
+  // Replaces every per-Gaussian tensor by a gathered, extended or filtered
   // version (densification and pruning); the tensors must agree in N. The
   // parameters keep their identity (optimisers keep holding them); graphs
   // built on the old ones must be released before the next backward (their
   // gradient accumulators expect the old sizes).
   void replace_gaussians(torch::Tensor means, torch::Tensor log_scales, torch::Tensor rotations,
-                         torch::Tensor opacity_logits, torch::Tensor sh_dc, torch::Tensor sh_rest);
+                         torch::Tensor opacity_logits, torch::Tensor sh_dc, torch::Tensor sh_rest,
+                         torch::Tensor surface_weights);
 
  private:
   GaussianAvatarOptions options_;
-  std::shared_ptr<FrozenSkinningField> skinning_;
-  torch::Tensor means_, log_scales_, rotations_, opacity_logits_, sh_dc_, sh_rest_;
+  int64_t bones_ = 0;
+  std::shared_ptr<FrozenSkinningField> skinning_;  // the "grid" source only
+  torch::Tensor means_, log_scales_, rotations_, opacity_logits_, sh_dc_, sh_rest_, surface_weights_;
 };
 TORCH_MODULE(GaussianAvatar);
 
