@@ -53,11 +53,11 @@ torch::Tensor DensityStatistics::mean_gradient() const { return sum_ / count_.cl
 
 namespace {
 
-constexpr size_t kParameters = 7;  // and the surface weights, which take no optimiser
+constexpr size_t kParameters = 8;  // the surface weights take no optimiser
 
 std::array<torch::Tensor*, kParameters> gaussian_parameters(GaussianAvatarImpl& avatar) {
   return {&avatar.means(),          &avatar.log_scales(), &avatar.rotations(),      &avatar.opacity_logits(),
-          &avatar.sh_dc(),          &avatar.sh_rest(),    &avatar.surface_weights()};
+          &avatar.sh_dc(),          &avatar.sh_rest(),    &avatar.surface_weights(), &avatar.skinning_corrections()};
 }
 
 torch::optim::AdamParamState* adam_state(torch::optim::Adam& adam, const torch::Tensor& parameter) {
@@ -85,7 +85,8 @@ void edit_gaussians(GaussianAvatarImpl& avatar, torch::optim::Adam& adam, const 
       if (state->max_exp_avg_sq().defined()) state->max_exp_avg_sq(extend(state->max_exp_avg_sq()));
     }
   }
-  avatar.replace_gaussians(values[0], values[1], values[2], values[3], values[4], values[5], values[6]);
+  avatar.replace_gaussians(values[0], values[1], values[2], values[3], values[4], values[5], values[6],
+                           values[7]);
 }
 
 // The rows `index` of every parameter, in gaussian_parameters' order.

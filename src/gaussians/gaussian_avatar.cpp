@@ -71,6 +71,8 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
   surface_weights_ = register_buffer(
       "surface_weights", from_grid ? torch::zeros({n, 0})
                                    : surface_point_weights(character, samples.points, samples.faces));
+  skinning_corrections_ =
+      register_parameter("skinning_corrections", torch::zeros({n, options_.learned_skinning ? bones_ : 0}));
   // Faces' total area over N: each sample's share of the surface, whose square root is their spacing.
   const auto v = character.mesh.vertices.to(torch::kFloat64);
   const auto f = character.mesh.faces;
@@ -91,7 +93,10 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
 torch::Tensor GaussianAvatarImpl::sh() const { return torch::cat({sh_dc_, sh_rest_}, 1); }
 
 torch::Tensor GaussianAvatarImpl::skinning_weights() {
-  return skinning_ ? skinning_->weights(means_) : surface_weights_;
+  const auto source = skinning_ ? skinning_->weights(means_) : surface_weights_;
+  if (!options_.learned_skinning) return source;
+  // Floored so that a bone without weight stays reachable by its logit.
+  return torch::softmax(torch::log(source.clamp_min(1e-6)) + skinning_corrections_, 1);
 }
 
 PosedGaussians GaussianAvatarImpl::pose(const torch::Tensor& bones) {
@@ -128,7 +133,8 @@ GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const Pinh
 
 void GaussianAvatarImpl::replace_gaussians(torch::Tensor means, torch::Tensor log_scales, torch::Tensor rotations,
                                            torch::Tensor opacity_logits, torch::Tensor sh_dc,
-                                           torch::Tensor sh_rest, torch::Tensor surface_weights) {
+                                           torch::Tensor sh_rest, torch::Tensor surface_weights,
+                                           torch::Tensor skinning_corrections) {
   const int64_t n = means.size(0);
   expect_shape(means, {n, 3}, "gaussian avatar: means");
   expect_shape(log_scales, {n, 3}, "gaussian avatar: log_scales");
@@ -137,6 +143,7 @@ void GaussianAvatarImpl::replace_gaussians(torch::Tensor means, torch::Tensor lo
   expect_shape(sh_dc, {n, 1, 3}, "gaussian avatar: sh_dc");
   expect_shape(sh_rest, {n, sh_rest_.size(1), 3}, "gaussian avatar: sh_rest");
   expect_shape(surface_weights, {n, surface_weights_.size(1)}, "gaussian avatar: surface_weights");
+  expect_shape(skinning_corrections, {n, skinning_corrections_.size(1)}, "gaussian avatar: skinning_corrections");
   // set_data keeps each parameter's identity (the module's registry and the
   // optimiser's parameter lists still hold it) while its size changes; the
   // optimiser's per-parameter state is the caller's to resize. Gradients of
@@ -149,7 +156,8 @@ void GaussianAvatarImpl::replace_gaussians(torch::Tensor means, torch::Tensor lo
   sh_dc_.set_data(sh_dc.detach().clone());
   sh_rest_.set_data(sh_rest.detach().clone());
   surface_weights_.set_data(surface_weights.detach().clone());
-  for (auto* p : {&means_, &log_scales_, &rotations_, &opacity_logits_, &sh_dc_, &sh_rest_}) {
+  skinning_corrections_.set_data(skinning_corrections.detach().clone());
+  for (auto* p : {&means_, &log_scales_, &rotations_, &opacity_logits_, &sh_dc_, &sh_rest_, &skinning_corrections_}) {
     p->mutable_grad() = torch::Tensor();
   }
 }

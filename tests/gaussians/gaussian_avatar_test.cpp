@@ -39,7 +39,7 @@ TEST(GaussianAvatar, GaussiansOnTheVerticesFollowTheMeshsLinearBlendSkinning) {
     const auto weights = source == "surface" ? character.weights.to(torch::kFloat32) : torch::zeros({n, 0});
     avatar->replace_gaussians(vertices, torch::zeros({n, 3}),
                               torch::tensor({1.0f, 0.0f, 0.0f, 0.0f}).repeat({n, 1}), torch::zeros({n}),
-                              torch::zeros({n, 1, 3}), torch::zeros({n, 0, 3}), weights);
+                              torch::zeros({n, 1, 3}), torch::zeros({n, 0, 3}), weights, torch::zeros({n, 0}));
     EXPECT_EQ(avatar->size(), n);
     const auto height = (vertices.select(1, 1).max() - vertices.select(1, 1).min()).item<double>();
     for (int64_t frame = 0; frame < split.size(); ++frame) {
@@ -79,6 +79,31 @@ TEST(GaussianAvatar, SurfaceWeightsInterpolateTheVertexWeightsAtEachSample) {
   const double size = extent.max().item<double>();
   EXPECT_LT((recovered - avatar->means().to(torch::kFloat64)).abs().max().item<double>(), 1e-4 * size);
   EXPECT_TRUE(torch::allclose(w.sum(1), torch::ones({2000}, torch::kFloat64), 1e-5, 1e-5));
+}
+
+TEST(GaussianAvatar, LearnedCorrectionsStartAtTheRigsWeightsAndMoveThemDifferentiably) {
+  const ImageDataset dataset(testing::tiny_image_dataset().dir);
+  const auto& character = dataset.character();
+  auto options = small_options(300, 0);
+  GaussianAvatar rig(character, options, 4);
+  options.learned_skinning = true;
+  GaussianAvatar learned(character, options, 4);
+  ASSERT_EQ(learned->skinning_corrections().sizes(), (std::vector<int64_t>{300, character.num_joints()}));
+  EXPECT_EQ(rig->skinning_corrections().size(1), 0);
+  // Zero corrections: the rig's weights (up to the 1e-6 floor).
+  EXPECT_LT((learned->skinning_weights() - rig->skinning_weights()).abs().max().item<double>(), 1e-4);
+  // A correction towards bone 0 raises its weight, and the gradient reaches the corrections.
+  {
+    torch::NoGradGuard no_grad;
+    learned->skinning_corrections().select(1, 0).fill_(3.0f);
+  }
+  const auto weights = learned->skinning_weights();
+  EXPECT_TRUE(torch::allclose(weights.sum(1), torch::ones({300}), 1e-5, 1e-5));
+  EXPECT_TRUE((weights.select(1, 0) >= rig->skinning_weights().select(1, 0) - 1e-6).all().item<bool>());
+  const auto posed = learned->pose(dataset.load_split("train").bone_transforms[0]);
+  posed.means.sum().backward();
+  ASSERT_TRUE(learned->skinning_corrections().grad().defined());
+  EXPECT_GT(learned->skinning_corrections().grad().abs().sum().item<double>(), 0.0);
 }
 
 TEST(GaussianAvatar, MovingTheBodyRigidlyRendersAsMovingTheCameraTheOtherWay) {

@@ -40,10 +40,12 @@ TEST(GaussianDensityControl, ClonesSplitsAndPrunesWithTheirAdamMoments) {
   GaussianAvatarOptions options;
   options.initial_gaussians = 40;
   options.skinning_grid_resolution = 16;
+  options.learned_skinning = true;
   GaussianAvatar avatar(dataset.character(), options, 0);
   const double size = 1.7;
   {
     torch::NoGradGuard no_grad;
+    avatar->skinning_corrections().copy_(torch::rand_like(avatar->skinning_corrections()));
     // Gaussians 0-9 small (clone candidates), 10-19 large (split), 20-24 transparent (pruned).
     avatar->log_scales().fill_(std::log(0.005 * size));
     avatar->log_scales().narrow(0, 10, 10).fill_(std::log(0.05 * size));
@@ -65,6 +67,7 @@ TEST(GaussianDensityControl, ClonesSplitsAndPrunesWithTheirAdamMoments) {
   const auto before_means = avatar->means().detach().clone();
   const auto before_sh = avatar->sh_dc().detach().clone();
   const auto before_weights = avatar->surface_weights().clone();
+  const auto before_corrections = avatar->skinning_corrections().detach().clone();
   DensityControlOptions control;
   const auto change = densify_and_prune(*avatar, statistics, adam, control, size);
   EXPECT_EQ(change.cloned, 10);
@@ -83,6 +86,8 @@ TEST(GaussianDensityControl, ClonesSplitsAndPrunesWithTheirAdamMoments) {
   EXPECT_TRUE(torch::equal(avatar->surface_weights().narrow(0, 25, 10), before_weights.narrow(0, 0, 10)));
   EXPECT_TRUE(torch::equal(avatar->surface_weights().narrow(0, 35, 10), before_weights.narrow(0, 10, 10)));
   EXPECT_TRUE(torch::equal(avatar->surface_weights().narrow(0, 45, 10), before_weights.narrow(0, 10, 10)));
+  EXPECT_TRUE(torch::equal(avatar->skinning_corrections().narrow(0, 25, 10), before_corrections.narrow(0, 0, 10)));
+  EXPECT_TRUE(torch::equal(avatar->skinning_corrections().narrow(0, 45, 10), before_corrections.narrow(0, 10, 10)));
   const auto half_scales = torch::exp(avatar->log_scales().narrow(0, 35, 20));
   // (Adam's one step moved the log-scales by about its learning rate.)
   EXPECT_TRUE(torch::allclose(half_scales, torch::full_like(half_scales, 0.05 * size / 1.6), 2e-3, 0.0));
@@ -134,6 +139,7 @@ TEST(GaussianTraining, AResumedRunRepeatsTheUninterruptedOneExactly) {
   auto options = tiny_gaussian_training("gaussian_resume", 60);
   options.checkpoint_every = 30;
   options.density.stop_fraction = 0.8;  // densifications at 20 and 40, on both sides of the cut
+  options.avatar.learned_skinning = true;  // its corrections and their moments resume too
   train_gaussian_avatar(options);
   const auto whole = TrainedGaussianAvatar::load(options.out_dir);
   const RunDirectory run(options.out_dir);
@@ -150,6 +156,8 @@ TEST(GaussianTraining, AResumedRunRepeatsTheUninterruptedOneExactly) {
   EXPECT_TRUE(torch::equal(whole.avatar->means(), resumed.avatar->means()));
   EXPECT_TRUE(torch::equal(whole.avatar->sh_dc(), resumed.avatar->sh_dc()));
   EXPECT_TRUE(torch::equal(whole.avatar->opacity_logits(), resumed.avatar->opacity_logits()));
+  EXPECT_TRUE(torch::equal(whole.avatar->skinning_corrections(), resumed.avatar->skinning_corrections()));
+  EXPECT_GT(whole.avatar->skinning_corrections().abs().max().item<double>(), 0.0);  // they were learned
 }
 
 TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {

@@ -13,6 +13,10 @@
 //    (fields/preset_skinning_field.h, as the volume avatar uses) read at the
 //    Gaussian's current canonical mean, so a Gaussian takes the weights of
 //    where it moves (3DGS-Avatar, GART).
+// With `learned_skinning`, each Gaussian also learns a correction of its
+// weights' logits, w = softmax(log(w_source) + delta), delta starting at zero
+// (GART's learned correction of the rig's weights, per Gaussian instead of
+// per voxel), for what the rig's weights do not move as the images do.
 // With T = sum_j w_j B_j (SNARF eq. 4) and A its 3 x 3 part:
 //   mean' = T mean,  Sigma' = A Sigma A^T
 // (the exact image of the Gaussian under the affine map T; A is a rotation
@@ -37,6 +41,7 @@ struct GaussianAvatarOptions {
   double initial_opacity = 0.5;
   std::string skinning_source = "surface";  // "surface" | "grid" (above)
   int64_t skinning_grid_resolution = 64;     // "grid": voxels along the canonical box's longest side
+  bool learned_skinning = false;             // learn a per-Gaussian correction of the weights (above)
   void validate() const;
 };
 
@@ -100,6 +105,11 @@ class GaussianAvatarImpl : public torch::nn::Module {
   // trained); [N, 0] with the "grid" source. Density control gathers its rows
   // with the parameters'.
   torch::Tensor& surface_weights() { return surface_weights_; }
+  // The learned corrections of the weights' logits [N, J] (a parameter,
+  // zeros at the start); [N, 0] without learned_skinning.
+  torch::Tensor& skinning_corrections() { return skinning_corrections_; }
+  const torch::Tensor& surface_weights() const { return surface_weights_; }
+  const torch::Tensor& skinning_corrections() const { return skinning_corrections_; }
 
   // Replaces every per-Gaussian tensor by a gathered, extended or filtered
   // version (densification and pruning); the tensors must agree in N. The
@@ -108,13 +118,13 @@ class GaussianAvatarImpl : public torch::nn::Module {
   // gradient accumulators expect the old sizes).
   void replace_gaussians(torch::Tensor means, torch::Tensor log_scales, torch::Tensor rotations,
                          torch::Tensor opacity_logits, torch::Tensor sh_dc, torch::Tensor sh_rest,
-                         torch::Tensor surface_weights);
+                         torch::Tensor surface_weights, torch::Tensor skinning_corrections);
 
  private:
   GaussianAvatarOptions options_;
   int64_t bones_ = 0;
   std::shared_ptr<FrozenSkinningField> skinning_;  // the "grid" source only
-  torch::Tensor means_, log_scales_, rotations_, opacity_logits_, sh_dc_, sh_rest_, surface_weights_;
+  torch::Tensor means_, log_scales_, rotations_, opacity_logits_, sh_dc_, sh_rest_, surface_weights_, skinning_corrections_;
 };
 TORCH_MODULE(GaussianAvatar);
 

@@ -34,10 +34,15 @@ struct GaussianTrainOptions {
   double rotations_learning_rate = 1e-3;
   double opacity_learning_rate = 5e-2;
   double sh_learning_rate = 2.5e-3;  // degree 0; higher degrees at a 20th
+  double skinning_learning_rate = 1e-3;  // the learned skinning corrections (avatar.learned_skinning)
   // Cosine decay of every rate to decay_factor x over the last decay_fraction of the steps.
   double decay_fraction = 1.0, decay_factor = 0.1;
   double ssim_weight = 0.2;
-  double mask_weight = 0.1;
+  double mask_weight = 0.5;
+  // The learned skinning corrections' prior: this weight times their mean
+  // square (per Gaussian and bone), keeping the rig's weights where the
+  // images do not ask otherwise.
+  double skinning_weight = 0.01;
   // Each step renders only the box of its image's mask grown by this fraction
   // of its size (mask_box), the camera cut to it; the losses stay those of the
   // whole picture (sums over the box divided by the whole picture's pixels and
