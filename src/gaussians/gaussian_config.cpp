@@ -72,29 +72,12 @@ const Field kFields[] = {
 }  // namespace
 
 json gaussian_config_document(const GaussianTrainOptions& options) {
-  json d = json::object();
-  for (const auto& [path, only] : kFixedKinds) d[json::json_pointer(path)] = only;
-  for (const auto& field : kFields) d[json::json_pointer(field.path)] = field.read(options);
-  return d;
+  return fields_document(options, kFields, kFixedKinds);
 }
 
 GaussianTrainOptions gaussian_options_from_document(const json& document, const GaussianTrainOptions& base,
                                                     const std::string& context) {
-  FSKIN_CHECK(document.is_object(), "{}: the config must be a JSON object, got {}", context, document.type_name());
-  json given = document;
-  given.erase("format");
-  given.erase("fskin_version");
-  json d = gaussian_config_document(base);
-  overlay_document(d, given, context);
-  check_document_kinds(d, kFixedKinds, context);
-  GaussianTrainOptions o = base;
-  for (const auto& field : kFields) field.write(o, d.at(json::json_pointer(field.path)));
-  try {
-    o.validate();
-  } catch (const Error& error) {
-    fail("{}: {}", context, error.what());
-  }
-  return o;
+  return options_from_fields(document, base, kFields, kFixedKinds, context);
 }
 
 json gaussian_run_document(const GaussianTrainOptions& o) {

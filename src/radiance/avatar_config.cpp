@@ -118,10 +118,7 @@ json nested_from_flat(const json& flat, const std::string& context) {
 }  // namespace
 
 json avatar_config_document(const AvatarTrainOptions& options) {
-  json d = json::object();
-  for (const auto& [path, only] : kFixedKinds) d[json::json_pointer(path)] = only;
-  for (const auto& field : kFields) d[json::json_pointer(field.path)] = field.read(options);
-  return d;
+  return fields_document(options, kFields, kFixedKinds);
 }
 
 AvatarTrainOptions avatar_options_from_document(const json& document, const AvatarTrainOptions& base,
@@ -131,17 +128,7 @@ AvatarTrainOptions avatar_options_from_document(const json& document, const Avat
   given.erase("format");
   given.erase("fskin_version");
   if (is_flat(given)) given = nested_from_flat(given, context);
-  json d = avatar_config_document(base);
-  overlay_document(d, given, context);
-  check_document_kinds(d, kFixedKinds, context);
-  AvatarTrainOptions o = base;
-  for (const auto& field : kFields) field.write(o, d.at(json::json_pointer(field.path)));
-  try {
-    o.validate();
-  } catch (const Error& error) {
-    fail("{}: {}", context, error.what());
-  }
-  return o;
+  return options_from_fields(given, base, kFields, kFixedKinds, context);
 }
 
 json avatar_run_document(const AvatarTrainOptions& o) {
