@@ -79,6 +79,8 @@ SurfaceSamples sample_surface_with_faces(const Mesh& mesh, int64_t count, Rng& r
   auto face_of = torch::empty({count}, torch::kInt64);
   float* op = out.data_ptr<float>();
   int64_t* fo = face_of.data_ptr<int64_t>();
+  auto barycentrics = torch::empty({count, 3}, torch::kFloat64);
+  double* bo = barycentrics.data_ptr<double>();
   for (int64_t k = 0; k < count; ++k) {
     const double target = rng.uniform() * total;
     const int64_t i = std::min<int64_t>(
@@ -95,8 +97,11 @@ SurfaceSamples sample_surface_with_faces(const Mesh& mesh, int64_t count, Rng& r
     const double* c = vp + 3 * fp[3 * i + 2];
     for (int d = 0; d < 3; ++d)
       op[3 * k + d] = static_cast<float>(a[d] + s * (b[d] - a[d]) + t * (c[d] - a[d]));
+    bo[3 * k] = 1.0 - s - t;
+    bo[3 * k + 1] = s;
+    bo[3 * k + 2] = t;
   }
-  return {out, face_of};
+  return {out, face_of, barycentrics};
 }
 
 torch::Tensor sample_box(const Box& box, int64_t count, Rng& rng) {

@@ -15,27 +15,16 @@
 namespace fskin {
 namespace {
 
-// The character's vertex weights at points on its faces, interpolated with the
-// points' barycentric coordinates [M, J] float32 (rows renormalised).
-torch::Tensor surface_point_weights(const RiggedMesh& character, const torch::Tensor& points,
-                                    const torch::Tensor& faces) {
-  const auto v = character.mesh.vertices.to(torch::kFloat64);
-  const auto corners = character.mesh.faces.index_select(0, faces);  // [M, 3]
-  const auto a = v.index_select(0, corners.select(1, 0)), b = v.index_select(0, corners.select(1, 1)),
-             c = v.index_select(0, corners.select(1, 2));
-  const auto p = points.to(torch::kFloat64);
-  // Barycentric coordinates by the normal equations of p - a = s (b - a) + t (c - a).
-  const auto e1 = b - a, e2 = c - a, d = p - a;
-  const auto dot = [](const torch::Tensor& x, const torch::Tensor& y) { return (x * y).sum(1); };
-  const auto d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), d1 = dot(d, e1), d2 = dot(d, e2);
-  const auto det = (d11 * d22 - d12 * d12).clamp_min(1e-300);
-  const auto s = ((d22 * d1 - d12 * d2) / det).clamp(0, 1), t = ((d11 * d2 - d12 * d1) / det).clamp(0, 1);
+// The character's vertex weights where the samples lie on its faces,
+// interpolated with their barycentric coordinates [M, J] float32.
+torch::Tensor surface_point_weights(const RiggedMesh& character, const SurfaceSamples& samples) {
+  const auto corners = character.mesh.faces.index_select(0, samples.faces);  // [M, 3]
   const auto w = character.weights.to(torch::kFloat64);
-  auto blended = (1 - s - t).clamp_min(0).unsqueeze(1) * w.index_select(0, corners.select(1, 0)) +
-                 s.unsqueeze(1) * w.index_select(0, corners.select(1, 1)) +
-                 t.unsqueeze(1) * w.index_select(0, corners.select(1, 2));
-  blended = blended.clamp_min(0);
-  return (blended / blended.sum(1, true).clamp_min(1e-12)).to(torch::kFloat32);
+  auto blended = torch::zeros({samples.faces.size(0), w.size(1)}, torch::kFloat64);
+  for (int k = 0; k < 3; ++k) {
+    blended += samples.barycentrics.select(1, k).unsqueeze(1) * w.index_select(0, corners.select(1, k));
+  }
+  return blended.to(torch::kFloat32);
 }
 
 }  // namespace
@@ -70,7 +59,7 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
   const auto points = samples.points.to(torch::kFloat32);
   surface_weights_ = register_buffer(
       "surface_weights", from_grid ? torch::zeros({n, 0})
-                                   : surface_point_weights(character, samples.points, samples.faces));
+                                   : surface_point_weights(character, samples));
   skinning_corrections_ =
       register_parameter("skinning_corrections", torch::zeros({n, options_.learned_skinning ? bones_ : 0}));
   // Faces' total area over N: each sample's share of the surface, whose square root is their spacing.

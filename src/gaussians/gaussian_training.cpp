@@ -89,15 +89,14 @@ class GaussianTrainable : public Trainable {
   }
 
   std::vector<OptimizerGroup> optimizer_groups() override {
-    std::vector<OptimizerGroup> groups = {{{avatar_->means()}, options_.means_learning_rate * size_},
-                                          {{avatar_->log_scales()}, options_.scales_learning_rate},
-                                          {{avatar_->rotations()}, options_.rotations_learning_rate},
-                                          {{avatar_->opacity_logits()}, options_.opacity_learning_rate},
-                                          {{avatar_->sh_dc()}, options_.sh_learning_rate},
-                                          {{avatar_->sh_rest()}, options_.sh_learning_rate / 20},
-                                          // [N, 0] without learned skinning: nothing to step.
-                                          {{avatar_->skinning_corrections()}, options_.skinning_learning_rate}};
-    return groups;
+    return {{{avatar_->means()}, options_.means_learning_rate * size_},
+            {{avatar_->log_scales()}, options_.scales_learning_rate},
+            {{avatar_->rotations()}, options_.rotations_learning_rate},
+            {{avatar_->opacity_logits()}, options_.opacity_learning_rate},
+            {{avatar_->sh_dc()}, options_.sh_learning_rate},
+            {{avatar_->sh_rest()}, options_.sh_learning_rate / 20},
+            // [N, 0] without learned skinning: nothing to step.
+            {{avatar_->skinning_corrections()}, options_.skinning_learning_rate}};
   }
   std::vector<torch::Tensor> parameters() override { return avatar_->parameters(); }
 

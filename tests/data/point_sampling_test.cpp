@@ -26,6 +26,22 @@ TEST(PointSampling, SurfaceSamplesAreAreaUniform) {
   EXPECT_NEAR(face.select(1, 2).mean().item<float>(), 2.0f, 0.04f);
 }
 
+TEST(PointSampling, SurfaceSamplesNameTheirFaceAndWhereOnIt) {
+  const auto mesh = testing::sphere_mesh(1.0, 8, 16);
+  Rng rng(3);
+  const auto samples = sample_surface_with_faces(mesh, 500, rng);
+  Rng again(3);
+  EXPECT_TRUE(torch::equal(samples.points, sample_surface(mesh, 500, again)));  // the same draws
+  const auto b = samples.barycentrics;
+  EXPECT_GE(b.min().item<double>(), 0.0);
+  EXPECT_TRUE(torch::allclose(b.sum(1), torch::ones({500}, torch::kFloat64)));
+  const auto corners = mesh.faces.index_select(0, samples.faces);
+  const auto v = mesh.vertices.to(torch::kFloat64);
+  auto rebuilt = torch::zeros({500, 3}, torch::kFloat64);
+  for (int k = 0; k < 3; ++k) rebuilt += b.select(1, k).unsqueeze(1) * v.index_select(0, corners.select(1, k));
+  EXPECT_LT((rebuilt - samples.points.to(torch::kFloat64)).abs().max().item<double>(), 1e-6);
+}
+
 TEST(PointSampling, FramePointsHaveUniformHalfInTheBoxAndNoisySurfaceHalf) {
   const auto mesh = testing::sphere_mesh(1.0, 64, 128);
   SamplingOptions options;

@@ -34,10 +34,12 @@ struct SamplingOptions {
 // `count` points uniform on the surface (each face chosen with probability
 // proportional to its area, then uniform barycentric coordinates). [count, 3].
 torch::Tensor sample_surface(const Mesh& mesh, int64_t count, Rng& rng);
-// The same samples (the same draws from rng) with the face each lies on.
+// The same samples (the same draws from rng) with the face each lies on and
+// where on it.
 struct SurfaceSamples {
-  torch::Tensor points;  // [count, 3] float32
-  torch::Tensor faces;   // [count] int64
+  torch::Tensor points;        // [count, 3] float32
+  torch::Tensor faces;         // [count] int64
+  torch::Tensor barycentrics;  // [count, 3] float64, of the face's corners in order
 };
 SurfaceSamples sample_surface_with_faces(const Mesh& mesh, int64_t count, Rng& rng);
 // `count` points uniform in `box`. [count, 3].

@@ -92,7 +92,6 @@ class GaussianAvatarImpl : public torch::nn::Module {
 
   // Skinning weights [N, J] of the Gaussians (rows sum to 1).
   torch::Tensor skinning_weights();
-  int64_t num_bones() const { return bones_; }
   // The Gaussians in the frame of bones [J, 4, 4] (canonical -> posed).
   PosedGaussians pose(const torch::Tensor& bones);
   // A picture of the posed Gaussians [H, W, 3] and its alpha over a uniform

@@ -16,7 +16,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 #include <vector>
 
 #include "ops/gaussian_rasterization/gaussian_rasterization_kernel.h"
@@ -24,12 +23,12 @@
 namespace fskin::gaussian_rasterization {
 namespace {
 
-// A tile's entries [begin, end) as a launch of their own (Gaussian i of the
-// packed arrays is entry begin + i); the outputs stay the global ones.
+// A tile's entries [begin, end) as a launch of their own: Gaussian i of the
+// packed arrays is entry begin + i, and the tile walks them by that index
+// (the launch has no tile lists); the outputs stay the global ones.
 template <typename T>
 struct PackedTile {
   std::vector<T> means2d, conics, colors, opacities;
-  std::vector<int64_t> order;
   RasterLaunch<T> launch;
 
   void pack(const RasterLaunch<T>& a, int64_t begin, int64_t end) {
@@ -39,8 +38,6 @@ struct PackedTile {
     conics.resize(3 * k);
     colors.resize(c * k);
     opacities.resize(k);
-    order.resize(k);
-    std::iota(order.begin(), order.end(), int64_t{0});
     for (int64_t i = 0; i < k; ++i) {
       const int64_t g = a.tile_gaussians[begin + i];
       std::copy_n(a.means2d + 2 * g, 2, means2d.data() + 2 * i);
@@ -53,7 +50,8 @@ struct PackedTile {
     launch.conics = conics.data();
     launch.colors = colors.data();
     launch.opacities = opacities.data();
-    launch.tile_gaussians = order.data();
+    launch.tile_gaussians = nullptr;
+    launch.tile_ranges = nullptr;
   }
 };
 
