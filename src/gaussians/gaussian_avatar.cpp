@@ -11,6 +11,7 @@
 #include "fskin/gaussians/spherical_harmonics.h"
 #include "fskin/ops/gaussian_rasterization.h"
 #include "fskin/skeleton/lbs.h"
+#include "fskin/skeleton/rotations.h"
 
 namespace fskin {
 namespace {
@@ -33,6 +34,8 @@ void GaussianAvatarOptions::validate() const {
   FSKIN_CHECK(initial_gaussians >= 1 && initial_gaussians <= 10'000'000,
               "gaussian avatar: initial_gaussians must be within 1..10000000, got {}", initial_gaussians);
   FSKIN_CHECK(sh_degree >= 0 && sh_degree <= 3, "gaussian avatar: sh_degree must be 0 to 3, got {}", sh_degree);
+  FSKIN_CHECK(initial_thickness > 0 && initial_thickness <= 1,
+              "gaussian avatar: initial_thickness must be within (0, 1], got {}", initial_thickness);
   FSKIN_CHECK(initial_opacity > 0 && initial_opacity < 1,
               "gaussian avatar: initial_opacity must be within (0, 1), got {}", initial_opacity);
   FSKIN_CHECK(skinning_source == "surface" || skinning_source == "grid",
@@ -70,8 +73,26 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
   const double area = 0.5 * torch::cross(e1, e2, 1).norm(2, 1).sum().item<double>();
   const double spacing = std::sqrt(std::max(area, 1e-12) / static_cast<double>(n));
   means_ = register_parameter("means", points);
-  log_scales_ = register_parameter("log_scales", torch::full({n, 3}, static_cast<float>(std::log(spacing))));
-  rotations_ = register_parameter("rotations", torch::tensor({1.0f, 0.0f, 0.0f, 0.0f}).repeat({n, 1}));
+  auto log_scales = torch::full({n, 3}, static_cast<float>(std::log(spacing)));
+  auto rotations = torch::tensor({1.0f, 0.0f, 0.0f, 0.0f}).repeat({n, 1});
+  if (options_.initial_thickness < 1) {
+    // Discs in the faces' planes: the local z axis along the face normal, that scale thinner.
+    log_scales.select(1, 2).add_(static_cast<float>(std::log(options_.initial_thickness)));
+    const auto corners = f.index_select(0, samples.faces);
+    const auto a = v.index_select(0, corners.select(1, 0));
+    const auto normal = torch::cross(v.index_select(0, corners.select(1, 1)) - a,
+                                     v.index_select(0, corners.select(1, 2)) - a, 1);
+    const auto z = normal / normal.norm(2, 1, true).clamp_min(1e-30);
+    // Any x perpendicular to z: the world axis least aligned with it, made orthogonal.
+    const auto least = z.abs().argmin(1);
+    auto x = torch::zeros_like(z).scatter_(1, least.unsqueeze(1), 1.0);
+    x = x - (x * z).sum(1, true) * z;
+    x = x / x.norm(2, 1, true);
+    const auto y = torch::cross(z, x, 1);
+    rotations = matrix_to_quaternion(torch::stack({x, y, z}, 2)).to(torch::kFloat32);
+  }
+  log_scales_ = register_parameter("log_scales", log_scales);
+  rotations_ = register_parameter("rotations", rotations);
   const double logit = std::log(options_.initial_opacity / (1 - options_.initial_opacity));
   opacity_logits_ = register_parameter("opacity_logits", torch::full({n}, static_cast<float>(logit)));
   sh_dc_ = register_parameter("sh_dc", torch::zeros({n, 1, 3}));
@@ -111,9 +132,11 @@ GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const Pinh
   const auto directions = view / view.norm(2, 1, true).clamp_min(1e-12);
   const auto colors = spherical_harmonics_color(sh(), directions);
   const auto bg = torch::tensor({background[0], background[1], background[2]}, means_.options());
+  const auto opacities =
+      options_.antialiased ? posed.opacities * projected.opacity_compensation : posed.opacities;
   GaussianRender out;
   std::tie(out.image, out.alpha) =
-      rasterize_gaussians(projected.means2d, projected.conics, colors, posed.opacities, projected.depths,
+      rasterize_gaussians(projected.means2d, projected.conics, colors, opacities, projected.depths,
                           projected.radii, bg, camera.width, camera.height);
   out.means2d = projected.means2d;
   out.radii = projected.radii;

@@ -37,6 +37,8 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/model/gaussians/initial", avatar.initial_gaussians),
     FSKIN_GAUSSIAN_FIELD("/model/gaussians/sh_degree", avatar.sh_degree),
     FSKIN_GAUSSIAN_FIELD("/model/gaussians/initial_opacity", avatar.initial_opacity),
+    FSKIN_GAUSSIAN_FIELD("/model/gaussians/antialiased", avatar.antialiased),
+    FSKIN_GAUSSIAN_FIELD("/model/gaussians/initial_thickness", avatar.initial_thickness),
     FSKIN_GAUSSIAN_FIELD("/model/skinning/source", avatar.skinning_source),
     FSKIN_GAUSSIAN_FIELD("/model/skinning/grid_resolution", avatar.skinning_grid_resolution),
     FSKIN_GAUSSIAN_FIELD("/model/skinning/learned", avatar.learned_skinning),
@@ -98,6 +100,8 @@ GaussianTrainOptions read_gaussian_run_config(const std::string& path, const std
   base.data_dir = "(the run's dataset)";  // every run file names its own
   // Runs written before the skinning source existed read the grid.
   if (!document.contains(json::json_pointer("/model/skinning/source"))) base.avatar.skinning_source = "grid";
+  // ... and those written before the dilation's compensation drew without it.
+  if (!document.contains(json::json_pointer("/model/gaussians/antialiased"))) base.avatar.antialiased = false;
   return gaussian_options_from_document(document, base, path);
 }
 

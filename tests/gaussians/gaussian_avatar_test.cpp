@@ -10,8 +10,11 @@
 
 #include <string>
 
+#include "fskin/data/point_sampling.h"
+#include "fskin/data/random.h"
 #include "fskin/gaussians/spherical_harmonics.h"
 #include "fskin/skeleton/lbs.h"
+#include "fskin/skeleton/rotations.h"
 #include "radiance/tiny_image_dataset.h"
 
 namespace fskin {
@@ -154,6 +157,40 @@ TEST(GaussianAvatar, SphericalHarmonicsOfDegreeZeroGiveTheirColourAndHigherDegre
   EXPECT_TRUE(torch::allclose(front - color, color - back, 1e-6, 1e-6));
   EXPECT_NEAR((front - color)[0][0].item<float>(), 0.3f * 0.4886025f, 1e-6);
   testing::expect_error([&] { spherical_harmonics_color(torch::zeros({1, 5, 3}), forward); }, {"5 coefficients"});
+}
+
+TEST(GaussianAvatar, ThinStartsAreDiscsInTheirFacesPlanes) {
+  // The avatar samples its Gaussians as sample_surface_with_faces does with
+  // its seed: each one's thin axis (rotation's third column) is its face's
+  // normal, the other two span the face, and the thin scale is the width
+  // times initial_thickness.
+  const ImageDataset dataset(testing::tiny_image_dataset().dir);
+  const auto& character = dataset.character();
+  auto options = small_options(1500, 0);
+  options.initial_thickness = 0.1;
+  GaussianAvatar avatar(character, options, 7);
+  Rng rng(7);
+  const auto samples = sample_surface_with_faces(character.mesh, 1500, rng);
+  ASSERT_TRUE(torch::allclose(avatar->means(), samples.points.to(torch::kFloat32)));
+  const auto v = character.mesh.vertices.to(torch::kFloat64);
+  const auto corners = character.mesh.faces.index_select(0, samples.faces);
+  const auto a = v.index_select(0, corners.select(1, 0));
+  const auto normal = torch::cross(v.index_select(0, corners.select(1, 1)) - a, v.index_select(0, corners.select(1, 2)) - a, 1);
+  const auto unit_normal = normal / normal.norm(2, 1, true);
+  const auto q = avatar->rotations().to(torch::kFloat64);
+  const auto r = quaternion_to_matrix(q / q.norm(2, 1, true));
+  const auto thin_axis = r.select(2, 2);
+  EXPECT_GT((thin_axis * unit_normal).sum(1).abs().min().item<double>(), 1 - 1e-5);
+  EXPECT_LT((r.select(2, 0) * unit_normal).sum(1).abs().max().item<double>(), 1e-5);
+  EXPECT_LT((r.select(2, 1) * unit_normal).sum(1).abs().max().item<double>(), 1e-5);
+  const auto scales = torch::exp(avatar->log_scales().to(torch::kFloat64));
+  EXPECT_TRUE(torch::allclose(scales.select(1, 2), 0.1 * scales.select(1, 0), 1e-5));
+  EXPECT_TRUE(torch::allclose(scales.select(1, 1), scales.select(1, 0)));
+  // Spheres with thickness 1.
+  GaussianAvatar spheres(character, small_options(100, 0), 7);
+  EXPECT_TRUE(torch::equal(spheres->log_scales().select(1, 0), spheres->log_scales().select(1, 2)));
+  options.initial_thickness = 0;
+  testing::expect_error([&] { GaussianAvatar(character, options, 0); }, {"initial_thickness"});
 }
 
 TEST(GaussianAvatar, StartsOnTheSurfaceAndRejectsBadOptions) {

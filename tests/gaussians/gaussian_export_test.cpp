@@ -158,8 +158,12 @@ TEST(GaussianExport, ThePlyPosedWithItsOwnWeightsRendersAsTheAvatar) {
                                         .unsqueeze(-1))
                           .squeeze(-1);
     const auto colors = spherical_harmonics_color(sh, view / view.norm(2, 1, true));
+    const bool antialiased =
+        std::find(ply.comments.begin(), ply.comments.end(), "antialiased") != ply.comments.end();
+    EXPECT_EQ(antialiased, options.antialiased);
+    const auto drawn = antialiased ? opacities * projected.opacity_compensation : opacities;
     const auto [image, alpha] =
-        rasterize_gaussians(projected.means2d, projected.conics, colors, opacities, projected.depths, projected.radii,
+        rasterize_gaussians(projected.means2d, projected.conics, colors, drawn, projected.depths, projected.radii,
                             torch::ones({3}), camera.width, camera.height);
     torch::NoGradGuard no_grad;
     const auto expected = avatar->render(bones[frame], camera, {1, 1, 1});

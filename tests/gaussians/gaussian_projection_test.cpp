@@ -100,6 +100,60 @@ TEST(GaussianProjection, GaussiansBehindTheNearPlaneAreNotDrawnAndStayDifferenti
   EXPECT_TRUE(torch::isfinite(means.grad()).all().item<bool>());
 }
 
+TEST(GaussianProjection, TheDilationsCompensationKeepsASmallFootprintsIntegratedOpacity) {
+  // A Gaussian of 0.5 pixel standard deviation: the 0.3 pixel^2 dilation more
+  // than doubles its area (0.55 / 0.25), so uncompensated it covers 2.2 times
+  // the opacity it should; compensated, its alpha sums to opacity x 2 pi
+  // sigma^2 (the footprint is sampled finely enough that the sum is the
+  // integral; what the 1/255 cut-off and the 3-sigma box lose is under 2 %).
+  const auto camera = test_camera(33, 33, 100);
+  const double sigma_pixels = 0.5, depth = 2.0, opacity = 0.99;
+  const double sigma = sigma_pixels * depth / 100;
+  const auto means = torch::tensor({0.0, 0.0, depth}, torch::kFloat64).view({1, 3});
+  const auto covariances = (sigma * sigma * torch::eye(3, torch::kFloat64)).unsqueeze(0);
+  const auto p = project_gaussians(means, covariances, camera);
+  EXPECT_NEAR(p.opacity_compensation[0].item<double>(), std::sqrt(0.25 * 0.25 / (0.55 * 0.55)), 1e-9);
+  const auto covered = [&](const torch::Tensor& opacities) {
+    const auto colors = torch::ones({1, 3}, torch::kFloat64), background = torch::zeros({3}, torch::kFloat64);
+    return std::get<1>(rasterize_gaussians(p.means2d, p.conics, colors, opacities, p.depths, p.radii, background,
+                                           camera.width, camera.height))
+        .sum()
+        .item<double>();
+  };
+  const double integral = opacity * 2 * M_PI * sigma_pixels * sigma_pixels;
+  const auto opacities = torch::full({1}, opacity, torch::kFloat64);
+  EXPECT_NEAR(covered(opacities * p.opacity_compensation), integral, 0.02 * integral);
+  EXPECT_GT(covered(opacities), 1.5 * integral);
+}
+
+TEST(GaussianProjection, TheCompensationsGradientMatchesFiniteDifferences) {
+  auto camera = test_camera(40, 40, 80);
+  camera.extrinsic.topLeftCorner<3, 3>() =
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 0.5, 0).normalized()).toRotationMatrix();
+  const auto means = torch::tensor({0.05, -0.02, 2.5}, torch::kFloat64).view({1, 3});
+  const auto covariance = gaussian_covariances(torch::tensor({0.004, 0.02, 0.01}, torch::kFloat64).view({1, 3}),
+                                               torch::tensor({0.8, 0.3, -0.2, 0.1}, torch::kFloat64).view({1, 4}));
+  auto variable = covariance.clone().requires_grad_(true);
+  const auto compensation = [&](const torch::Tensor& c) {
+    return project_gaussians(means, c, camera).opacity_compensation[0];
+  };
+  const double value = compensation(variable).item<double>();
+  EXPECT_GT(value, 0.05);
+  EXPECT_LT(value, 0.95);
+  compensation(variable).backward();
+  const double h = 1e-9;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      auto step = torch::zeros({1, 3, 3}, torch::kFloat64);
+      step[0][i][j] = h;
+      const double numeric = (compensation(covariance + step).item<double>() -
+                              compensation(covariance - step).item<double>()) / (2 * h);
+      EXPECT_NEAR(variable.grad()[0][i][j].item<double>(), numeric, 1e-5 * (1 + std::abs(numeric)))
+          << "entry " << i << ", " << j;
+    }
+  }
+}
+
 TEST(GaussianProjection, GradientsThroughProjectionAndRasteriserMoveAGaussianOntoItsTarget) {
   // One Gaussian rendered at a target position; a second run starts it 0.15
   // away and follows the picture's gradient back.

@@ -39,9 +39,15 @@ struct GaussianAvatarOptions {
   int64_t initial_gaussians = 20000;  // area-uniform on the canonical mesh
   int64_t sh_degree = 1;              // 0-3
   double initial_opacity = 0.5;
+  // Thickness along the face normal relative to the width at the start: 1,
+  // spheres; below 1, discs in the faces' planes.
+  double initial_thickness = 1.0;
   std::string skinning_source = "surface";  // "surface" | "grid" (above)
   int64_t skinning_grid_resolution = 64;     // "grid": voxels along the canonical box's longest side
   bool learned_skinning = false;             // learn a per-Gaussian correction of the weights (above)
+  // Opacities scaled by the projection's compensation of its dilation
+  // (gaussian_projection.h): footprints keep their weight from any distance.
+  bool antialiased = true;
   void validate() const;
 };
 

@@ -10,6 +10,9 @@
 //   element bone_transform F*J  (with an animation) m00 .. m33, row-major 4 x 4
 //                               canonical -> posed transforms, frame by frame;
 //                               `comment fps <f>`
+//   `comment antialiased`       the avatar was trained with opacities scaled
+//                               by the dilation's compensation
+//                               (gaussian_projection.h), as its renders are
 // A reader poses Gaussian i in a frame as fskin does: T = sum_j w_ij B_j,
 // mean' = T mean, covariance' = A R S S R^T A^T (A: T's 3 x 3 part).
 #include <torch/types.h>
