@@ -277,8 +277,9 @@ def evaluate_avatar(run: str, split: str = ..., data: str = ..., max_images: int
 def export_avatar(run: str, out: str, bones: Optional[torch.Tensor] = ..., resolution: int = ..., fps: float = ..., influences: int = ..., data: str = ...) -> None:
     """`fskin avatar export`: the avatar as a rigged glTF character (.glb/.gltf): its coloured surface
     (COLOR_0), the skinning weights it is posed with, the dataset's skeleton; bones [T, J, 4, 4]
-    (canonical -> posed) as an animation. A Gaussian avatar's run: its Gaussians as a 3DGS .ply with
-    weights, skeleton and animation (resolution and influences do not apply)"""
+    (canonical -> posed) as an animation. A Gaussian avatar's run: its Gaussians as a 3DGS .ply (every
+    weight) or a glTF with KHR_gaussian_splatting (influences apply), with weights, skeleton and
+    animation (resolution does not apply)"""
     ...
 
 def hash_encoding(positions: torch.Tensor, table: torch.Tensor, levels: int = ..., features_per_level: int = ..., log2_table_size: int = ..., base_resolution: int = ..., per_level_scale: float = ...) -> torch.Tensor:

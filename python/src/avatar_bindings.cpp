@@ -141,10 +141,14 @@ void bind_avatars(py::module_& m) {
          double fps, int64_t influences, const std::string& data) {
         py::gil_scoped_release release;
         const auto given = bones ? bones->detach().to(torch::kCPU, torch::kFloat32) : torch::Tensor();
-        if (fskin::is_gaussian_avatar_run(run)) {  // the Gaussians as a 3DGS PLY (docs/gaussian_avatars.md)
+        if (fskin::is_gaussian_avatar_run(run)) {  // .ply or glTF by extension (docs/gaussian_avatars.md)
           auto trained = fskin::TrainedGaussianAvatar::load(run);
           const fskin::ImageDataset dataset(data.empty() ? trained.options.data_dir : data);
-          fskin::write_gaussian_ply(out, *trained.avatar, dataset.character().skeleton, given, fps);
+          fskin::GaussianGltfOptions file;
+          file.bones = given;
+          file.fps = fps;
+          file.influences = influences;
+          fskin::write_gaussian_avatar_file(out, *trained.avatar, dataset.character().skeleton, file);
           return;
         }
         auto trained = fskin::TrainedAvatar::load(run);
@@ -160,8 +164,8 @@ void bind_avatars(py::module_& m) {
       py::arg("influences") = 4, py::arg("data") = "",
       "`fskin avatar export`: the avatar as a rigged glTF character (.glb/.gltf): its coloured surface (COLOR_0), "
       "the skinning weights it is posed with, the dataset's skeleton; bones [T, J, 4, 4] (canonical -> posed) as "
-      "an animation. A Gaussian avatar's run: its Gaussians as a 3DGS .ply with weights, skeleton and animation "
-      "(resolution and influences do not apply)");
+      "an animation. A Gaussian avatar's run: its Gaussians as a 3DGS .ply (every weight) or a glTF with "
+      "KHR_gaussian_splatting (influences apply), with weights, skeleton and animation (resolution does not apply)");
   m.def(
       "train_avatar",
       [](const std::string& data, const std::string& out, int64_t steps, int64_t rays_per_step, bool resume,

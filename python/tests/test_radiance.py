@@ -177,6 +177,16 @@ def test_gaussian_avatars_train_evaluate_render_and_export(tmp_path):
     fskin.export_avatar(run, str(tmp_path / "avatar.ply"), bones=torch.from_numpy(bones))
     header = (tmp_path / "avatar.ply").read_bytes()[:200]
     assert header.startswith(b"ply\nformat binary_little_endian 1.0\n")
+    # glTF with the Khronos extension: its JSON chunk names the extension and the animation's frames.
+    fskin.export_avatar(run, str(tmp_path / "avatar.glb"), bones=torch.from_numpy(bones), influences=0)
+    glb = (tmp_path / "avatar.glb").read_bytes()
+    assert glb[:4] == b"glTF"
+    document = json.loads(glb[20:20 + int.from_bytes(glb[12:16], "little")])
+    assert document["extensionsUsed"] == ["KHR_gaussian_splatting"]
+    assert document["meshes"][0]["primitives"][0]["mode"] == 0
+    assert document["accessors"][document["animations"][0]["samplers"][0]["input"]]["count"] == len(bones)
+    with pytest.raises(fskin.Error, match="avatar.obj"):
+        fskin.export_avatar(run, str(tmp_path / "avatar.obj"))
     with pytest.raises(fskin.Error, match="fit_poses is not available"):
         fskin.evaluate_avatar(run, split="train", fit_poses=2)
     with pytest.raises(fskin.Error, match="unknown key"):

@@ -396,10 +396,10 @@ void register_avatar(CLI::App& app) {
   auto exported = std::make_shared<ExportOptions>();
   auto* x = cmd->add_subcommand("export", "The avatar as a rigged glTF character (.glb/.gltf): its coloured surface "
                                           "with the skinning weights it is posed with, the dataset's skeleton, and "
-                                          "optionally an animation; a Gaussian avatar as a 3DGS .ply with its "
-                                          "weights, skeleton and animation");
+                                          "optionally an animation; a Gaussian avatar as a 3DGS .ply or a glTF "
+                                          "with KHR_gaussian_splatting, with its weights, skeleton and animation");
   x->add_option("run", exported->run, "avatar run directory")->required();
-  x->add_option("--out", exported->out, "output .glb or .gltf")->required();
+  x->add_option("--out", exported->out, "output .glb or .gltf (a Gaussian avatar: also .ply)")->required();
   x->add_option("--resolution", exported->resolution, "grid samples along the canonical box's longest side")
       ->check(CLI::Range(int64_t{8}, int64_t{1024}));
   x->add_option("--data", exported->data, "image dataset (default: the run's)");
@@ -409,24 +409,26 @@ void register_avatar(CLI::App& app) {
       ->check(CLI::ExistingFile);
   x->add_option("--fps", exported->fps, "frames per second of the animation")->check(CLI::PositiveNumber);
   x->add_option("--influences", exported->influences,
-                "largest weights kept per vertex (4: what every engine reads; 0: all)")
+                "largest weights kept per vertex or Gaussian (4: what every engine reads; 0: all)")
       ->check(CLI::NonNegativeNumber);
   x->callback([x, exported] {
     FSKIN_CHECK(exported->split.empty() || exported->bones.empty(), "give --split or --bones, not both");
     const auto extension = fs::path(exported->out).extension().string();
     if (is_gaussian_avatar_run(exported->run)) {
-      // The Gaussians themselves: 3DGS's PLY layout plus weights, skeleton and animation.
-      FSKIN_CHECK(extension == ".ply", "{}: a Gaussian avatar is written as a 3DGS .ply: name it .ply",
-                  exported->out);
-      for (const char* name : {"--resolution", "--influences"}) {
-        FSKIN_CHECK(x->count(name) == 0, "{} applies to the volume avatar's glTF, not to a Gaussian avatar", name);
-      }
+      // The Gaussians themselves: 3DGS's PLY layout plus weights, skeleton and animation, or a skinned
+      // glTF with the Khronos Gaussian-splatting extension.
+      FSKIN_CHECK(x->count("--resolution") == 0, "--resolution applies to the volume avatar's surface, not to Gaussians");
+      FSKIN_CHECK(extension != ".ply" || x->count("--influences") == 0,
+                  "--influences applies to glTF; the .ply keeps every joint's weight");
       auto trained = TrainedGaussianAvatar::load(exported->run);
       const ImageDataset data(exported->data.empty() ? trained.options.data_dir : exported->data);
-      torch::Tensor bones;
-      if (!exported->split.empty()) bones = data.load_split(exported->split).bone_transforms;
-      if (!exported->bones.empty()) bones = load_bone_transforms(exported->bones, data.character().num_joints());
-      write_gaussian_ply(exported->out, *trained.avatar, data.character().skeleton, bones, exported->fps);
+      GaussianGltfOptions file;
+      if (!exported->split.empty()) file.bones = data.load_split(exported->split).bone_transforms;
+      if (!exported->bones.empty()) file.bones = load_bone_transforms(exported->bones, data.character().num_joints());
+      file.fps = exported->fps;
+      file.influences = exported->influences;
+      write_gaussian_avatar_file(exported->out, *trained.avatar, data.character().skeleton, file);
+      const auto& bones = file.bones;
       std::printf("wrote %s (%lld Gaussians, %lld joints%s)\n", exported->out.c_str(),
                   static_cast<long long>(trained.avatar->size()),
                   static_cast<long long>(data.character().num_joints()),

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -81,6 +82,18 @@ void write_gaussian_ply(const std::string& path, GaussianAvatarImpl& avatar, con
   }
   if (bones.defined()) append_floats(bytes, bones.reshape({-1, 16}));
   write_file_atomically(path, bytes);
+}
+
+void write_gaussian_avatar_file(const std::string& path, GaussianAvatarImpl& avatar, const Skeleton& skeleton,
+                                const GaussianGltfOptions& options) {
+  const auto extension = std::filesystem::path(path).extension().string();
+  if (extension == ".ply") {
+    write_gaussian_ply(path, avatar, skeleton, options.bones, options.fps);
+    return;
+  }
+  FSKIN_CHECK(extension == ".glb" || extension == ".gltf",
+              "{}: a Gaussian avatar is written as a 3DGS .ply or a glTF .glb / .gltf: name it so", path);
+  write_gaussian_gltf(path, avatar, skeleton, options);
 }
 
 }  // namespace fskin

@@ -47,4 +47,6 @@ torch::Tensor spherical_harmonics_color(const torch::Tensor& coefficients, const
 
 torch::Tensor color_to_spherical_harmonics_dc(const torch::Tensor& color) { return (color - 0.5) / kY0; }
 
+torch::Tensor spherical_harmonics_dc_color(const torch::Tensor& dc) { return dc * kY0 + 0.5; }
+
 }  // namespace fskin

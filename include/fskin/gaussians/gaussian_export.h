@@ -20,6 +20,7 @@
 #include <string>
 
 #include "fskin/gaussians/gaussian_avatar.h"
+#include "fskin/gaussians/gaussian_gltf.h"
 #include "fskin/skeleton/skeleton.h"
 
 namespace fskin {
@@ -28,5 +29,12 @@ namespace fskin {
 // errors name `path`.
 void write_gaussian_ply(const std::string& path, GaussianAvatarImpl& avatar, const Skeleton& skeleton,
                         const torch::Tensor& bones = {}, double fps = 30);
+
+// By path's extension: .ply as above (every joint's weight: options'
+// influences apply to glTF only), .glb / .gltf as gaussian_gltf.h; anything
+// else is an error naming path. What `fskin avatar
+// export` and Python's export_avatar write for a Gaussian run.
+void write_gaussian_avatar_file(const std::string& path, GaussianAvatarImpl& avatar, const Skeleton& skeleton,
+                                const GaussianGltfOptions& options = {});
 
 }  // namespace fskin

@@ -17,5 +17,7 @@ torch::Tensor spherical_harmonics_color(const torch::Tensor& coefficients, const
 // The degree-0 coefficient that gives `color` [..., C] (the inverse of the
 // constant term): (color - 0.5) / Y_0.
 torch::Tensor color_to_spherical_harmonics_dc(const torch::Tensor& color);
+// Its inverse, the view-independent part of the colour: dc Y_0 + 0.5.
+torch::Tensor spherical_harmonics_dc_color(const torch::Tensor& dc);
 
 }  // namespace fskin
