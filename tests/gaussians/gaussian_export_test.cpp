@@ -10,11 +10,9 @@
 #include <map>
 #include <sstream>
 
-#include "fskin/gaussians/gaussian_projection.h"
-#include "fskin/gaussians/spherical_harmonics.h"
-#include "fskin/ops/gaussian_rasterization.h"
-#include "fskin/skeleton/lbs.h"
 #include "fskin/util/atomic_file.h"
+#include "fskin/skeleton/rotations.h"
+#include "gaussians/exported_gaussians.h"
 #include "radiance/tiny_image_dataset.h"
 
 namespace fskin {
@@ -95,20 +93,7 @@ Ply read_ply(const std::string& path) {
 TEST(GaussianExport, ThePlyPosedWithItsOwnWeightsRendersAsTheAvatar) {
   const ImageDataset dataset(testing::tiny_image_dataset().dir);
   const auto split = dataset.load_split("train");
-  GaussianAvatarOptions options;
-  options.initial_gaussians = 2000;
-  options.sh_degree = 2;
-  options.skinning_grid_resolution = 32;
-  GaussianAvatar avatar(dataset.character(), options, 3);
-  torch::manual_seed(4);
-  {
-    torch::NoGradGuard no_grad;  // a varied avatar: every parameter matters
-    avatar->sh_dc().normal_(0, 0.5);
-    avatar->sh_rest().normal_(0, 0.3);
-    avatar->log_scales().add_(torch::randn_like(avatar->log_scales()) * 0.3);
-    avatar->rotations().normal_();
-    avatar->opacity_logits().normal_(0, 1);
-  }
+  auto avatar = testing::varied_gaussian_avatar(dataset.character(), 2000, 2);  // every parameter matters
   const auto path = (testing::temp_dir("gaussian_export") / "avatar.ply").string();
   const auto bones = split.bone_transforms.narrow(0, 0, 3);
   write_gaussian_ply(path, *avatar, dataset.character().skeleton, bones, 24);
@@ -145,26 +130,13 @@ TEST(GaussianExport, ThePlyPosedWithItsOwnWeightsRendersAsTheAvatar) {
 
   for (int64_t frame = 0; frame < 3; ++frame) {
     const auto& camera = split.cameras[static_cast<size_t>(frame)];
-    // Posed as the PLY's documentation says, by this test's own code.
-    const auto transforms = blend_transforms(weights, animation[frame].unsqueeze(0))[0];
-    const auto linear = transforms.narrow(1, 0, 3).narrow(2, 0, 3);
-    const auto posed_means = transform_points(transforms, means);
-    const auto covariances = torch::matmul(torch::matmul(linear, gaussian_covariances(scales, rotations)),
-                                           linear.transpose(1, 2));
-    const auto projected = project_gaussians(posed_means, covariances, camera);
-    const Eigen::Vector3d eye = camera.centre();
-    const auto view = torch::matmul(linear.transpose(1, 2),
-                                    (posed_means - torch::tensor({eye.x(), eye.y(), eye.z()}).to(torch::kFloat32))
-                                        .unsqueeze(-1))
-                          .squeeze(-1);
-    const auto colors = spherical_harmonics_color(sh, view / view.norm(2, 1, true));
+    // Posed as the PLY's documentation says, by the tests' own code.
     const bool antialiased =
         std::find(ply.comments.begin(), ply.comments.end(), "antialiased") != ply.comments.end();
-    EXPECT_EQ(antialiased, options.antialiased);
-    const auto drawn = antialiased ? opacities * projected.opacity_compensation : opacities;
-    const auto [image, alpha] =
-        rasterize_gaussians(projected.means2d, projected.conics, colors, drawn, projected.depths, projected.radii,
-                            torch::ones({3}), camera.width, camera.height);
+    EXPECT_EQ(antialiased, avatar->options().antialiased);
+    const testing::FileGaussians file{means, quaternion_to_matrix(rotations / rotations.norm(2, 1, true)), scales,
+                                      opacities, sh, weights, antialiased};
+    const auto [image, alpha] = testing::render_file_gaussians(file, animation[frame], camera);
     torch::NoGradGuard no_grad;
     const auto expected = avatar->render(bones[frame], camera, {1, 1, 1});
     EXPECT_GT(expected.alpha.sum().item<double>(), 50.0);

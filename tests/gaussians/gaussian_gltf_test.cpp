@@ -15,12 +15,9 @@
 #include <functional>
 #include <string>
 
-#include "fskin/gaussians/gaussian_projection.h"
-#include "fskin/gaussians/spherical_harmonics.h"
-#include "fskin/ops/gaussian_rasterization.h"
-#include "fskin/skeleton/lbs.h"
 #include "fskin/skeleton/rotations.h"
 #include "fskin/util/atomic_file.h"
+#include "gaussians/exported_gaussians.h"
 #include "radiance/tiny_image_dataset.h"
 
 namespace fskin {
@@ -95,19 +92,7 @@ torch::Tensor skinning_matrices(const tinygltf::Model& model, int64_t frame) {
 TEST(GaussianGltf, TheFilePosedWithItsOwnSkinRendersAsTheAvatar) {
   const ImageDataset dataset(testing::tiny_image_dataset().dir);
   const auto split = dataset.load_split("train");
-  GaussianAvatarOptions options;
-  options.initial_gaussians = 2000;
-  options.sh_degree = 2;
-  GaussianAvatar avatar(dataset.character(), options, 3);
-  torch::manual_seed(4);
-  {
-    torch::NoGradGuard no_grad;  // a varied avatar: every parameter matters
-    avatar->sh_dc().normal_(0, 0.5);
-    avatar->sh_rest().normal_(0, 0.3);
-    avatar->log_scales().add_(torch::randn_like(avatar->log_scales()) * 0.3);
-    avatar->rotations().normal_();
-    avatar->opacity_logits().normal_(0, 1);
-  }
+  auto avatar = testing::varied_gaussian_avatar(dataset.character(), 2000, 2);  // every parameter matters
   const auto path = (testing::temp_dir("gaussian_gltf") / "avatar.glb").string();
   GaussianGltfOptions gltf;
   gltf.bones = split.bone_transforms.narrow(0, 0, 3);
@@ -125,7 +110,7 @@ TEST(GaussianGltf, TheFilePosedWithItsOwnSkinRendersAsTheAvatar) {
   EXPECT_EQ(extension.Get("kernel").Get<std::string>(), "ellipse");
   EXPECT_EQ(extension.Get("colorSpace").Get<std::string>(), "srgb_rec709_display");
   const bool antialiased = primitive.extras.Get("fskin").Get("antialiased").Get<bool>();
-  EXPECT_EQ(antialiased, options.antialiased);
+  EXPECT_EQ(antialiased, avatar->options().antialiased);
   const auto attribute = [&](const std::string& name) {
     EXPECT_TRUE(primitive.attributes.count(name)) << name;
     return read_accessor(model, primitive.attributes.at(name)).to(torch::kFloat32);
@@ -163,23 +148,9 @@ TEST(GaussianGltf, TheFilePosedWithItsOwnSkinRendersAsTheAvatar) {
     const auto& camera = split.cameras[static_cast<size_t>(frame)];
     const auto bones = skinning_matrices(model, frame).to(torch::kFloat32);
     EXPECT_LT((bones - gltf.bones[frame]).abs().max().item<double>(), 1e-4) << "frame " << frame;
-    const auto transforms = blend_transforms(weights, bones.unsqueeze(0))[0];
-    const auto linear = transforms.narrow(1, 0, 3).narrow(2, 0, 3);
-    const auto posed_means = transform_points(transforms, means);
-    const auto rotation = rotation_from_xyzw(rotation_xyzw);
-    const auto rs = rotation * scales.unsqueeze(1);
-    const auto covariances = torch::matmul(torch::matmul(linear, torch::matmul(rs, rs.transpose(1, 2))),
-                                           linear.transpose(1, 2));
-    const auto projected = project_gaussians(posed_means, covariances, camera);
-    const Eigen::Vector3d eye = camera.centre();
-    const auto view = torch::matmul(linear.transpose(1, 2),
-                                    (posed_means - torch::tensor({eye.x(), eye.y(), eye.z()}).to(torch::kFloat32))
-                                        .unsqueeze(-1))
-                          .squeeze(-1);
-    const auto colors = spherical_harmonics_color(sh, view / view.norm(2, 1, true));
-    const auto drawn = antialiased ? opacities * projected.opacity_compensation : opacities;
-    const auto [image, alpha] = rasterize_gaussians(projected.means2d, projected.conics, colors, drawn, projected.depths,
-                                                    projected.radii, torch::ones({3}), camera.width, camera.height);
+    const testing::FileGaussians file{means, rotation_from_xyzw(rotation_xyzw), scales, opacities, sh, weights,
+                                      antialiased};
+    const auto [image, alpha] = testing::render_file_gaussians(file, bones, camera);
     torch::NoGradGuard no_grad;
     const auto expected = avatar->render(split.bone_transforms[frame], camera, {1, 1, 1});
     EXPECT_GT(expected.alpha.sum().item<double>(), 50.0);
