@@ -19,6 +19,8 @@ void DensityControlOptions::validate() const {
   FSKIN_CHECK(dense_fraction > 0 && max_scale_fraction > dense_fraction,
               "gaussian density control: need 0 < dense_fraction < max_scale_fraction, got {} and {}", dense_fraction,
               max_scale_fraction);
+  FSKIN_CHECK(std::isfinite(max_scale_spacings) && max_scale_spacings >= 0,
+              "gaussian density control: max_scale_spacings must be >= 0 (0: no bound), got {}", max_scale_spacings);
   FSKIN_CHECK(min_opacity >= 0 && min_opacity < 1, "gaussian density control: min_opacity must be within [0, 1)");
   FSKIN_CHECK(opacity_reset_every >= 0 && max_gaussians >= 1,
               "gaussian density control: opacity_reset_every must be >= 0 and max_gaussians >= 1");
@@ -108,7 +110,8 @@ DensityChange densify_and_prune(GaussianAvatarImpl& avatar, const DensityStatist
   const auto scales = torch::exp(avatar.log_scales().detach());
   const auto widest = std::get<0>(scales.max(1));
   const auto opacity = torch::sigmoid(avatar.opacity_logits().detach());
-  const auto prune = (opacity < options.min_opacity) | (widest > options.max_scale_fraction * size);
+  auto prune = (opacity < options.min_opacity) | (widest > options.max_scale_fraction * size);
+  if (options.max_scale_spacings > 0) prune = prune | (widest > options.max_scale_spacings * avatar.initial_spacing());
   auto grow = (statistics.mean_gradient() >= options.gradient_threshold) & ~prune;
   // Growth within max_gaussians: a split adds one Gaussian net, a clone one;
   // when there is no room for all, the largest gradients go first.

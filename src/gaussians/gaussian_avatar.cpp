@@ -72,6 +72,7 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
   const auto e2 = v.index_select(0, f.select(1, 2)) - v.index_select(0, f.select(1, 0));
   const double area = 0.5 * torch::cross(e1, e2, 1).norm(2, 1).sum().item<double>();
   const double spacing = std::sqrt(std::max(area, 1e-12) / static_cast<double>(n));
+  initial_spacing_ = spacing;
   means_ = register_parameter("means", points);
   auto log_scales = torch::full({n, 3}, static_cast<float>(std::log(spacing)));
   auto rotations = torch::tensor({1.0f, 0.0f, 0.0f, 0.0f}).repeat({n, 1});

@@ -49,6 +49,7 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/density/dense_fraction", density.dense_fraction),
     FSKIN_GAUSSIAN_FIELD("/density/min_opacity", density.min_opacity),
     FSKIN_GAUSSIAN_FIELD("/density/max_scale_fraction", density.max_scale_fraction),
+    FSKIN_GAUSSIAN_FIELD("/density/max_scale_spacings", density.max_scale_spacings),
     FSKIN_GAUSSIAN_FIELD("/density/opacity_reset_every", density.opacity_reset_every),
     FSKIN_GAUSSIAN_FIELD("/density/max_gaussians", density.max_gaussians),
     FSKIN_GAUSSIAN_FIELD("/losses/ssim/weight", ssim_weight),
@@ -102,6 +103,9 @@ GaussianTrainOptions read_gaussian_run_config(const std::string& path, const std
   if (!document.contains(json::json_pointer("/model/skinning/source"))) base.avatar.skinning_source = "grid";
   // ... and those written before the dilation's compensation drew without it.
   if (!document.contains(json::json_pointer("/model/gaussians/antialiased"))) base.avatar.antialiased = false;
+  // ... those written before disc-shaped starts began with spheres, and pruned by the size alone.
+  if (!document.contains(json::json_pointer("/model/gaussians/initial_thickness"))) base.avatar.initial_thickness = 1;
+  if (!document.contains(json::json_pointer("/density/max_scale_spacings"))) base.density.max_scale_spacings = 0;
   return gaussian_options_from_document(document, base, path);
 }
 

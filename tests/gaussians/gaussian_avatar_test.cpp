@@ -187,7 +187,9 @@ TEST(GaussianAvatar, ThinStartsAreDiscsInTheirFacesPlanes) {
   EXPECT_TRUE(torch::allclose(scales.select(1, 2), 0.1 * scales.select(1, 0), 1e-5));
   EXPECT_TRUE(torch::allclose(scales.select(1, 1), scales.select(1, 0)));
   // Spheres with thickness 1.
-  GaussianAvatar spheres(character, small_options(100, 0), 7);
+  auto sphere_options = small_options(100, 0);
+  sphere_options.initial_thickness = 1;
+  GaussianAvatar spheres(character, sphere_options, 7);
   EXPECT_TRUE(torch::equal(spheres->log_scales().select(1, 0), spheres->log_scales().select(1, 2)));
   options.initial_thickness = 0;
   testing::expect_error([&] { GaussianAvatar(character, options, 0); }, {"initial_thickness"});

@@ -108,6 +108,31 @@ TEST(GaussianDensityControl, ClonesSplitsAndPrunesWithTheirAdamMoments) {
   EXPECT_EQ(avatar->means().grad().size(0), 55);
 }
 
+TEST(GaussianDensityControl, PrunesGaussiansWiderThanSomeInitialSpacings) {
+  const ImageDataset dataset(testing::tiny_image_dataset().dir);
+  GaussianAvatarOptions options;
+  options.initial_gaussians = 30;
+  GaussianAvatar avatar(dataset.character(), options, 0);
+  const double spacing = avatar->initial_spacing();
+  EXPECT_GT(spacing, 0.0);
+  {
+    torch::NoGradGuard no_grad;  // 0-9 at 2 spacings, 10-29 at 4
+    avatar->log_scales().fill_(std::log(4 * spacing));
+    avatar->log_scales().narrow(0, 0, 10).fill_(std::log(2 * spacing));
+  }
+  torch::optim::Adam adam(avatar->parameters(), torch::optim::AdamOptions(1e-3));
+  DensityStatistics statistics;
+  statistics.reset(30);
+  DensityControlOptions control;
+  control.max_scale_fraction = 1e3;  // the size's bound out of the way
+  control.max_scale_spacings = 3;
+  EXPECT_EQ(densify_and_prune(*avatar, statistics, adam, control, 1.0).pruned, 20);
+  EXPECT_EQ(avatar->size(), 10);
+  control.max_scale_spacings = 0;  // no bound
+  statistics.reset(10);
+  EXPECT_EQ(densify_and_prune(*avatar, statistics, adam, control, 1.0).pruned, 0);
+}
+
 TEST(GaussianTraining, AShortRunLearnsTheTinyDataset) {
   auto options = tiny_gaussian_training("gaussian_short_run", 150);
   const ImageDataset data(options.data_dir);
@@ -205,12 +230,22 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   EXPECT_EQ(changed.avatar.skinning_source, "surface");
   testing::expect_error([&] { configure_gaussian_options(base, "", {"model.skinning.source=bones"}); },
                         {"--set model.skinning.source=bones", "\"surface\" or \"grid\""});
-  // A run file from before the skinning source existed reads the grid, as it was trained.
+  // A run file from before the skinning source, the antialiasing and the disc starts existed
+  // reads the grid, draws without the compensation and started from spheres, as it was trained.
   const auto dir = testing::temp_dir("gaussian_run_without_source");
   auto old_document = gaussian_run_document(changed);
   old_document["model"]["skinning"].erase("source");
+  old_document["model"]["gaussians"].erase("antialiased");
+  old_document["model"]["gaussians"].erase("initial_thickness");
+  old_document["density"].erase("max_scale_spacings");
   std::ofstream(dir / "run.json") << old_document.dump();
-  EXPECT_EQ(read_gaussian_run_config((dir / "run.json").string(), dir.string()).avatar.skinning_source, "grid");
+  const auto old = read_gaussian_run_config((dir / "run.json").string(), dir.string()).avatar;
+  EXPECT_EQ(old.skinning_source, "grid");
+  EXPECT_FALSE(old.antialiased);
+  EXPECT_EQ(old.initial_thickness, 1.0);
+  EXPECT_EQ(read_gaussian_run_config((dir / "run.json").string(), dir.string()).density.max_scale_spacings, 0.0);
+  EXPECT_TRUE(changed.avatar.antialiased);
+  EXPECT_LT(changed.avatar.initial_thickness, 1.0);
   testing::expect_error([&] { TrainedGaussianAvatar::load(testing::temp_dir("not_a_gaussian_run").string()); },
                         {"not a Gaussian avatar run"});
 }

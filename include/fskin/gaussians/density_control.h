@@ -23,6 +23,10 @@ struct DensityControlOptions {
   double dense_fraction = 0.01;      // of the character's size: clone below, split above
   double min_opacity = 0.005;        // pruned below
   double max_scale_fraction = 0.1;   // pruned when its widest axis is larger (of the size)
+  // Also pruned when its widest axis exceeds this many initial spacings
+  // (GaussianAvatarImpl::initial_spacing; 0: no such bound): wide Gaussians
+  // fit the training cameras' outlines and overhang elsewhere.
+  double max_scale_spacings = 3.0;
   int64_t opacity_reset_every = 1500;  // 0: never
   int64_t max_gaussians = 300000;    // no growth beyond
   void validate() const;

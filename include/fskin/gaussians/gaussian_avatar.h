@@ -40,8 +40,10 @@ struct GaussianAvatarOptions {
   int64_t sh_degree = 1;              // 0-3
   double initial_opacity = 0.5;
   // Thickness along the face normal relative to the width at the start: 1,
-  // spheres; below 1, discs in the faces' planes.
-  double initial_thickness = 1.0;
+  // spheres; below 1, discs in the faces' planes. Discs: a sphere's half
+  // outside the surface widens the silhouette from every camera whose
+  // outline it does not lie on, which few training views correct.
+  double initial_thickness = 0.03;
   std::string skinning_source = "surface";  // "surface" | "grid" (above)
   int64_t skinning_grid_resolution = 64;     // "grid": voxels along the canonical box's longest side
   bool learned_skinning = false;             // learn a per-Gaussian correction of the weights (above)
@@ -73,6 +75,9 @@ class GaussianAvatarImpl : public torch::nn::Module {
   GaussianAvatarImpl(const RiggedMesh& character, GaussianAvatarOptions options, uint64_t seed);
 
   int64_t size() const { return means_.size(0); }
+  // The initial Gaussians' width: the mean spacing of N area-uniform samples,
+  // sqrt(surface area / N) (a function of the mesh and N alone).
+  double initial_spacing() const { return initial_spacing_; }
   int64_t sh_degree() const { return options_.sh_degree; }
   const GaussianAvatarOptions& options() const { return options_; }
 
@@ -128,6 +133,7 @@ class GaussianAvatarImpl : public torch::nn::Module {
  private:
   GaussianAvatarOptions options_;
   int64_t bones_ = 0;
+  double initial_spacing_ = 0;
   std::shared_ptr<FrozenSkinningField> skinning_;  // the "grid" source only
   torch::Tensor means_, log_scales_, rotations_, opacity_logits_, sh_dc_, sh_rest_, surface_weights_, skinning_corrections_;
 };
