@@ -40,6 +40,7 @@ from ._fskin import (  # noqa: F401
     quadruped,
     rasterize_gaussians,
     read_mesh,
+    read_png,
     refined_poses,
     render_avatar,
     train,

@@ -348,6 +348,11 @@ def read_mesh(path: str) -> tuple:
     """Read a .ply or .obj mesh: (vertices [V, 3], faces [F, 3])"""
     ...
 
+def read_png(path: str) -> torch.Tensor:
+    """An 8-bit PNG (grey, grey + alpha, RGB or RGBA) as RGB uint8 [H, W, 3], alpha dropped (a dataset's
+    images and masks)"""
+    ...
+
 def recommended_openblas_core() -> Optional[str]:
     """The OPENBLAS_CORETYPE to start Python with where OpenBLAS fell back to its SSE3 kernels on a CPU
     with AVX2 / AVX-512 (the fskin CLI restarts itself with it), or None"""

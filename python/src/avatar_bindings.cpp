@@ -3,6 +3,7 @@
 
 #include <array>
 
+#include "fskin/export/image.h"
 #include "fskin/export/skinned_gltf.h"
 #include "fskin/gaussians/gaussian_config.h"
 #include "fskin/gaussians/gaussian_evaluation.h"
@@ -27,6 +28,19 @@
 namespace fskin::python {
 
 void bind_avatars(py::module_& m) {
+  m.def(
+      "read_png",
+      [](const std::string& path) {
+        fskin::Image image;
+        {
+          py::gil_scoped_release release;
+          image = fskin::read_png(path);
+        }
+        return torch::from_blob(image.rgb.data(), {image.height, image.width, 3}, torch::kUInt8).clone();
+      },
+      py::arg("path"),
+      "An 8-bit PNG (grey, grey + alpha, RGB or RGBA) as RGB uint8 [H, W, 3], alpha dropped (a dataset's "
+      "images and masks)");
   m.def(
       "build_image_dataset",
       [](const std::string& model_path, const torch::Tensor& poses, const std::string& out,

@@ -174,6 +174,10 @@ def test_gaussian_avatars_train_evaluate_render_and_export(tmp_path):
     rgb, alpha = fskin.render_avatar(run, torch.from_numpy(bones[0]), torch.from_numpy(cam["intrinsic"][0]),
                                      torch.from_numpy(cam["extrinsic"][0]), 32, 32)
     assert rgb.shape == (32, 32, 3) and 0.0 < float(alpha.max()) <= 1.0
+    truth = fskin.read_png(str(split_dir / "images" / "image_0000.png"))
+    assert truth.shape == (32, 32, 3) and truth.dtype == torch.uint8 and int(truth.max()) > 0
+    with pytest.raises(fskin.Error, match="nothing.png"):
+        fskin.read_png(str(tmp_path / "nothing.png"))
     fskin.export_avatar(run, str(tmp_path / "avatar.ply"), bones=torch.from_numpy(bones))
     header = (tmp_path / "avatar.ply").read_bytes()[:200]
     assert header.startswith(b"ply\nformat binary_little_endian 1.0\n")

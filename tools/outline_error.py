@@ -1,0 +1,59 @@
+#!/usr/bin/python3
+"""How an avatar's outline differs from the truth on a split of its dataset:
+per image, the rendered opacity against the dataset's mask (areas in pixels,
+the opacity the mask lacks and the mask the opacity lacks), and the share of
+the squared colour error within 2 pixels of the mask's outline.
+
+    PYTHONPATH=build/python /usr/bin/python3 tools/outline_error.py RUN [--split novel_pose] [--data DIR]
+
+Any avatar run (volume or Gaussians) that `fskin avatar eval` takes.
+"""
+import argparse
+import json
+import pathlib
+
+import numpy as np
+import torch
+
+import fskin
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("run")
+    parser.add_argument("--split", default="novel_pose", choices=("train", "novel_view", "novel_pose"))
+    parser.add_argument("--data", default="", help="image dataset (default: the run's)")
+    args = parser.parse_args()
+    run = pathlib.Path(args.run)
+    data = args.data
+    if not data:
+        config = run / "gaussian_avatar.json"
+        if not config.exists():
+            config = run / "avatar.json"
+        data = json.loads(config.read_text())["data"]["path"]
+    split = pathlib.Path(data) / args.split
+    poses = np.load(split / "poses.npz")
+    cameras = np.load(split / "cameras.npz")
+    width, height = int(cameras["width"]), int(cameras["height"])
+    band_error = total_error = 0.0
+    print("image  rendered area  mask area  ratio  opacity outside the mask  mask without opacity")
+    for i in range(len(poses["bone_transforms"])):
+        truth = fskin.read_png(str(split / "images" / f"image_{i:04d}.png")).float() / 255
+        mask = fskin.read_png(str(split / "masks" / f"mask_{i:04d}.png"))[..., 0].float() / 255
+        rgb, alpha = fskin.render_avatar(str(run), torch.from_numpy(poses["bone_transforms"][i]),
+                                         torch.from_numpy(cameras["intrinsic"][i]),
+                                         torch.from_numpy(cameras["extrinsic"][i]), width, height)
+        inside = (mask > 0.5).float()[None, None]
+        grown = torch.nn.functional.max_pool2d(inside, 5, 1, 2)[0, 0] > 0
+        shrunk = -torch.nn.functional.max_pool2d(-inside, 5, 1, 2)[0, 0] > 0
+        error = (rgb - truth).square().sum(-1)
+        band_error += float(error[grown & ~shrunk].sum())
+        total_error += float(error.sum())
+        rendered, truth_area = float(alpha.sum()), float(mask.sum())
+        print(f"{i:5d}  {rendered:13.0f}  {truth_area:9.0f}  {rendered / truth_area:5.3f}  "
+              f"{float((alpha - mask).clamp(min=0).sum()):24.0f}  {float((mask - alpha).clamp(min=0).sum()):20.0f}")
+    print(f"squared colour error within 2 pixels of the outline: {100 * band_error / total_error:.1f} %")
+
+
+if __name__ == "__main__":
+    main()
