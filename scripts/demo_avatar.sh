@@ -48,6 +48,8 @@ gaussians_seconds=$(( $(date +%s) - gaussians_start ))
 "$FSKIN" avatar eval "$OUT/gaussians" --split novel_pose --json "$OUT/gaussians_eval_novel_pose.json" --quiet
 "$FSKIN" avatar render "$OUT/gaussians" --split novel_pose --index 0,3,6 --compare \
   --out "$OUT/gaussians_novel_poses_vs_truth.png"
+# For engines: the Gaussians as a skinned glTF (KHR_gaussian_splatting) playing the held-out poses.
+"$FSKIN" avatar export "$OUT/gaussians" --split novel_pose --out "$OUT/gaussian_avatar.glb"
 echo
 echo "== volume avatar vs Gaussian avatar (PSNR over the whole image / the subject's box, dB)"
 /usr/bin/python3 - "$OUT" "$gaussians_seconds" <<'PY'
