@@ -428,6 +428,10 @@ void register_avatar(CLI::App& app) {
       file.fps = exported->fps;
       file.influences = exported->influences;
       write_gaussian_avatar_file(exported->out, *trained.avatar, data.character().skeleton, file);
+      if (trained.avatar->options().non_rigid) {
+        std::printf("note: the avatar's non-rigid offsets depend on the pose and are not in the file: players "
+                    "pose its Gaussians by skinning alone\n");
+      }
       const auto& bones = file.bones;
       std::printf("wrote %s (%lld Gaussians, %lld joints%s)\n", exported->out.c_str(),
                   static_cast<long long>(trained.avatar->size()),

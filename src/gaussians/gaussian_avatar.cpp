@@ -92,6 +92,11 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
     const auto y = torch::cross(z, x, 1);
     rotations = matrix_to_quaternion(torch::stack({x, y, z}, 2)).to(torch::kFloat32);
   }
+  if (options_.non_rigid) {
+    const auto low = std::get<0>(v.min(0)), high = std::get<0>(v.max(0));
+    non_rigid_ = register_module("non_rigid", NonRigidOffset(bones_, low, high, (high - low).max().item<double>(),
+                                                             options_.non_rigid_network));
+  }
   log_scales_ = register_parameter("log_scales", log_scales);
   rotations_ = register_parameter("rotations", rotations);
   const double logit = std::log(options_.initial_opacity / (1 - options_.initial_opacity));
@@ -115,7 +120,8 @@ PosedGaussians GaussianAvatarImpl::pose(const torch::Tensor& bones) {
   const auto transforms = blend_transforms(skinning_weights(), bones.to(means_.options()).unsqueeze(0))[0];
   PosedGaussians posed;
   posed.linear = transforms.narrow(1, 0, 3).narrow(2, 0, 3);
-  posed.means = transform_points(transforms, means_);
+  if (non_rigid_) posed.offsets = non_rigid_->forward(means_, bones);
+  posed.means = transform_points(transforms, posed.offsets.defined() ? means_ + posed.offsets : means_);
   const auto canonical = gaussian_covariances(torch::exp(log_scales_), rotations_);
   posed.covariances = torch::matmul(torch::matmul(posed.linear, canonical), posed.linear.transpose(1, 2));
   posed.opacities = torch::sigmoid(opacity_logits_);
@@ -141,6 +147,7 @@ GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const Pinh
                           projected.radii, bg, camera.width, camera.height);
   out.means2d = projected.means2d;
   out.radii = projected.radii;
+  out.offsets = posed.offsets;
   return out;
 }
 

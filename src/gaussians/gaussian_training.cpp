@@ -38,7 +38,7 @@ void GaussianTrainOptions::validate() const {
   density.validate();
   FSKIN_CHECK(steps >= 0, "gaussian avatar train: steps must be >= 0, got {}", steps);
   for (const double rate : {means_learning_rate, scales_learning_rate, rotations_learning_rate, opacity_learning_rate,
-                            sh_learning_rate, skinning_learning_rate}) {
+                            sh_learning_rate, skinning_learning_rate, non_rigid_learning_rate}) {
     FSKIN_CHECK(std::isfinite(rate) && rate > 0 && rate <= 1,
                 "gaussian avatar train: learning rates must be in (0, 1], got {}", rate);
   }
@@ -46,6 +46,8 @@ void GaussianTrainOptions::validate() const {
               "gaussian avatar train: decay fraction must be within [0, 1] and decay factor within (0, 1]");
   FSKIN_CHECK(ssim_weight >= 0 && ssim_weight <= 1, "gaussian avatar train: the SSIM weight must be within [0, 1]");
   FSKIN_CHECK(std::isfinite(mask_weight) && mask_weight >= 0, "gaussian avatar train: the mask weight must be >= 0");
+  FSKIN_CHECK(std::isfinite(non_rigid_weight) && non_rigid_weight >= 0,
+              "gaussian avatar train: losses.non_rigid.weight must be >= 0, got {}", non_rigid_weight);
   FSKIN_CHECK(std::isfinite(skinning_weight) && skinning_weight >= 0,
               "gaussian avatar train: the skinning prior's weight must be >= 0");
   FSKIN_CHECK(std::isfinite(crop_margin) && crop_margin <= 10,
@@ -89,7 +91,7 @@ class GaussianTrainable : public Trainable {
   }
 
   std::vector<OptimizerGroup> optimizer_groups() override {
-    return {{{avatar_->means()}, options_.means_learning_rate * size_},
+    std::vector<OptimizerGroup> groups{{{avatar_->means()}, options_.means_learning_rate * size_},
             {{avatar_->log_scales()}, options_.scales_learning_rate},
             {{avatar_->rotations()}, options_.rotations_learning_rate},
             {{avatar_->opacity_logits()}, options_.opacity_learning_rate},
@@ -97,6 +99,10 @@ class GaussianTrainable : public Trainable {
             {{avatar_->sh_rest()}, options_.sh_learning_rate / 20},
             // [N, 0] without learned skinning: nothing to step.
             {{avatar_->skinning_corrections()}, options_.skinning_learning_rate}};
+    if (avatar_->non_rigid_offset()) {
+      groups.push_back({avatar_->non_rigid_offset()->parameters(), options_.non_rigid_learning_rate});
+    }
+    return groups;
   }
   std::vector<torch::Tensor> parameters() override { return avatar_->parameters(); }
 
@@ -159,6 +165,11 @@ class GaussianTrainable : public Trainable {
       const auto prior = options_.skinning_weight * avatar_->skinning_corrections().square().mean();
       out.total = out.total + prior;
       out.terms.emplace_back("skinning", prior.detach());
+    }
+    if (last_.offsets.defined() && options_.non_rigid_weight > 0) {
+      const auto prior = options_.non_rigid_weight * (last_.offsets / size_).square().sum(1).mean();
+      out.total = out.total + prior;
+      out.terms.emplace_back("non_rigid", prior.detach());
     }
     const auto mse = ((last_.image.detach() - target).pow(2).sum() / (3 * pixels)).to(torch::kFloat64);
     out.metrics = {{"psnr", -10 * torch::log10(mse.clamp_min(1e-12))}};

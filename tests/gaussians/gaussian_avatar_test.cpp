@@ -195,6 +195,47 @@ TEST(GaussianAvatar, ThinStartsAreDiscsInTheirFacesPlanes) {
   testing::expect_error([&] { GaussianAvatar(character, options, 0); }, {"initial_thickness"});
 }
 
+TEST(GaussianAvatar, TheNonRigidOffsetStartsAtZeroLearnsAndIgnoresRigidMotionsOfTheBody) {
+  const ImageDataset dataset(testing::tiny_image_dataset().dir);
+  const auto split = dataset.load_split("train");
+  auto options = small_options(400, 0);
+  options.non_rigid = true;
+  GaussianAvatar moving(dataset.character(), options, 5);
+  GaussianAvatar rigid(dataset.character(), small_options(400, 0), 5);
+  const auto bones = split.bone_transforms[0];
+  const auto& camera = split.cameras[0];
+  // Zero at the start: the same picture as without it.
+  const auto start = moving->render(bones, camera, {1, 1, 1});
+  EXPECT_EQ(start.offsets.abs().max().item<double>(), 0.0);
+  EXPECT_TRUE(torch::equal(start.image, rigid->render(bones, camera, {1, 1, 1}).image));
+  EXPECT_FALSE(rigid->render(bones, camera, {1, 1, 1}).offsets.defined());
+  // The picture's gradient reaches the network's last layer; a step makes the offsets pose-dependent.
+  start.image.sum().backward();
+  auto parameters = moving->non_rigid_offset()->parameters();
+  double gradient = 0;
+  for (const auto& p : parameters)
+    if (p.grad().defined()) gradient += p.grad().abs().sum().item<double>();
+  EXPECT_GT(gradient, 0.0);
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : parameters) p.add_(torch::randn_like(p) * 0.05);
+  }
+  torch::NoGradGuard no_grad;
+  const auto offsets = moving->pose(bones).offsets;
+  EXPECT_GT(offsets.abs().max().item<double>(), 0.0);
+  const auto other_pose = dataset.load_split("novel_pose").bone_transforms[0];
+  EXPECT_GT((moving->pose(other_pose).offsets - offsets).abs().max().item<double>(), 1e-4);
+  // A rotation and shift of the whole body (every bone) changes nothing.
+  Eigen::Matrix4f g = Eigen::Matrix4f::Identity();
+  g.topLeftCorner<3, 3>() = Eigen::AngleAxisf(0.7f, Eigen::Vector3f(0.2f, 1, 0.3f).normalized()).toRotationMatrix();
+  g.topRightCorner<3, 1>() = Eigen::Vector3f(0.3f, -0.1f, 0.5f);
+  auto moved = torch::empty({4, 4});
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) moved[r][c] = g(r, c);
+  const auto turned = torch::matmul(moved.unsqueeze(0), bones);
+  EXPECT_LT((moving->pose(turned).offsets - offsets).abs().max().item<double>(), 1e-5);
+}
+
 TEST(GaussianAvatar, StartsOnTheSurfaceAndRejectsBadOptions) {
   const ImageDataset dataset(testing::tiny_image_dataset().dir);
   const auto& character = dataset.character();

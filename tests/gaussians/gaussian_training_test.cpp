@@ -194,6 +194,7 @@ TEST(GaussianTraining, AResumedRunRepeatsTheUninterruptedOneExactly) {
   options.checkpoint_every = 30;
   options.density.stop_fraction = 0.8;  // densifications at 20 and 40, on both sides of the cut
   options.avatar.learned_skinning = true;  // its corrections and their moments resume too
+  options.avatar.non_rigid = true;         // and the non-rigid offset's network
   train_gaussian_avatar(options);
   const auto whole = TrainedGaussianAvatar::load(options.out_dir);
   const RunDirectory run(options.out_dir);
@@ -212,6 +213,11 @@ TEST(GaussianTraining, AResumedRunRepeatsTheUninterruptedOneExactly) {
   EXPECT_TRUE(torch::equal(whole.avatar->opacity_logits(), resumed.avatar->opacity_logits()));
   EXPECT_TRUE(torch::equal(whole.avatar->skinning_corrections(), resumed.avatar->skinning_corrections()));
   EXPECT_GT(whole.avatar->skinning_corrections().abs().max().item<double>(), 0.0);  // they were learned
+  const auto whole_network = whole.avatar->non_rigid_offset()->parameters();
+  const auto resumed_network = resumed.avatar->non_rigid_offset()->parameters();
+  ASSERT_EQ(whole_network.size(), resumed_network.size());
+  for (size_t k = 0; k < whole_network.size(); ++k) EXPECT_TRUE(torch::equal(whole_network[k], resumed_network[k]));
+  EXPECT_GT(whole_network.back().abs().max().item<double>(), 0.0);  // the last layer left zero
 }
 
 TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {

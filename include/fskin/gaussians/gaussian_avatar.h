@@ -30,6 +30,7 @@
 #include <string>
 
 #include "fskin/fields/voxel_skinning_field.h"
+#include "fskin/gaussians/non_rigid_offset.h"
 #include "fskin/geometry/pinhole_camera.h"
 #include "fskin/skeleton/rigged_mesh.h"
 
@@ -50,11 +51,17 @@ struct GaussianAvatarOptions {
   // Opacities scaled by the projection's compensation of its dilation
   // (gaussian_projection.h): footprints keep their weight from any distance.
   bool antialiased = true;
+  // A pose-conditioned offset of the means before skinning
+  // (gaussians/non_rigid_offset.h); off: the Gaussians move rigidly with
+  // their blended bones.
+  bool non_rigid = false;
+  NonRigidOffsetOptions non_rigid_network;
   void validate() const;
 };
 
 // Gaussians in a frame's posed space.
 struct PosedGaussians {
+  torch::Tensor offsets;      // [N, 3] the non-rigid offsets in canonical space; undefined without
   torch::Tensor means;        // [N, 3]
   torch::Tensor covariances;  // [N, 3, 3]
   torch::Tensor linear;       // [N, 3, 3] A, the blended transforms' 3 x 3 part
@@ -66,6 +73,7 @@ struct GaussianRender {
   torch::Tensor alpha;    // [H, W]
   torch::Tensor means2d;  // [N, 2] the projected means (density control reads their gradient)
   torch::Tensor radii;    // [N] pixels, 0 where not drawn
+  torch::Tensor offsets;  // [N, 3] the non-rigid offsets (their prior reads them); undefined without
 };
 
 class GaussianAvatarImpl : public torch::nn::Module {
@@ -120,6 +128,9 @@ class GaussianAvatarImpl : public torch::nn::Module {
   torch::Tensor& skinning_corrections() { return skinning_corrections_; }
   const torch::Tensor& surface_weights() const { return surface_weights_; }
   const torch::Tensor& skinning_corrections() const { return skinning_corrections_; }
+  // The non-rigid offset's network; empty (nullptr) without options.non_rigid.
+  NonRigidOffset& non_rigid_offset() { return non_rigid_; }
+  const NonRigidOffset& non_rigid_offset() const { return non_rigid_; }
 
   // Replaces every per-Gaussian tensor by a gathered, extended or filtered
   // version (densification and pruning); the tensors must agree in N. The
@@ -135,6 +146,7 @@ class GaussianAvatarImpl : public torch::nn::Module {
   int64_t bones_ = 0;
   double initial_spacing_ = 0;
   std::shared_ptr<FrozenSkinningField> skinning_;  // the "grid" source only
+  NonRigidOffset non_rigid_{nullptr};
   torch::Tensor means_, log_scales_, rotations_, opacity_logits_, sh_dc_, sh_rest_, surface_weights_, skinning_corrections_;
 };
 TORCH_MODULE(GaussianAvatar);

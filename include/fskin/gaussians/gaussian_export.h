@@ -14,7 +14,9 @@
 //                               by the dilation's compensation
 //                               (gaussian_projection.h), as its renders are
 // A reader poses Gaussian i in a frame as fskin does: T = sum_j w_ij B_j,
-// mean' = T mean, covariance' = A R S S R^T A^T (A: T's 3 x 3 part).
+// mean' = T mean, covariance' = A R S S R^T A^T (A: T's 3 x 3 part). An
+// avatar's non-rigid offsets (non_rigid_offset.h) depend on the pose through
+// a network and are in neither file: players pose by skinning alone.
 #include <torch/types.h>
 
 #include <string>

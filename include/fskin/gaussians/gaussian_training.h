@@ -35,6 +35,7 @@ struct GaussianTrainOptions {
   double opacity_learning_rate = 5e-2;
   double sh_learning_rate = 2.5e-3;  // degree 0; higher degrees at a 20th
   double skinning_learning_rate = 1e-3;  // the learned skinning corrections (avatar.learned_skinning)
+  double non_rigid_learning_rate = 1e-3;  // the non-rigid offset's network (avatar.non_rigid)
   // Cosine decay of every rate to decay_factor x over the last decay_fraction of the steps.
   double decay_fraction = 1.0, decay_factor = 0.1;
   double ssim_weight = 0.2;
@@ -43,6 +44,8 @@ struct GaussianTrainOptions {
   // square (per Gaussian and bone), keeping the rig's weights where the
   // images do not ask otherwise.
   double skinning_weight = 0.01;
+  // The non-rigid offsets' prior: weight x mean over Gaussians of |offset / size|^2.
+  double non_rigid_weight = 1.0;
   // Each step renders only the box of its image's mask grown by this fraction
   // of its size (mask_box), the camera cut to it; the losses stay those of the
   // whole picture (sums over the box divided by the whole picture's pixels and
