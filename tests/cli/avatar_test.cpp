@@ -201,8 +201,13 @@ TEST_F(AvatarCommands, GaussianAvatarsTrainEvaluateAndRender) {
   ASSERT_EQ(run_cli("avatar export " + run + " --split train --out " + path("gs.ply")), 0) << log();
   EXPECT_NE(log().find("an animation of 4 poses"), std::string::npos) << log();
   EXPECT_EQ(read_file(path("gs.ply")).rfind("ply\nformat binary_little_endian 1.0\n", 0), 0u);
-  ASSERT_NE(run_cli("avatar export " + run + " --out " + path("gs.glb")), 0);
-  EXPECT_NE(log().find("name it .ply"), std::string::npos) << log();
+  ASSERT_EQ(run_cli("avatar export " + run + " --split train --influences 0 --out " + path("gs.glb")), 0) << log();
+  EXPECT_EQ(read_file(path("gs.glb")).rfind("glTF", 0), 0u);
+  EXPECT_NE(read_file(path("gs.glb")).find("KHR_gaussian_splatting:SCALE"), std::string::npos);
+  ASSERT_NE(run_cli("avatar export " + run + " --out " + path("gs.obj")), 0);
+  EXPECT_NE(log().find("gs.obj: a Gaussian avatar is written as a 3DGS .ply or a glTF"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar export " + run + " --influences 4 --out " + path("gs2.ply")), 0);
+  EXPECT_NE(log().find("--influences applies to glTF"), std::string::npos) << log();
   // The volume avatar's options are not the Gaussian avatar's; a volume run is not continued as one.
   ASSERT_NE(run_cli("avatar train --data " + path("images") + " --out " + path("gs2") +
                     " --representation gaussians --rays 64"),
