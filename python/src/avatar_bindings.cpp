@@ -158,7 +158,7 @@ void bind_avatars(py::module_& m) {
         if (fskin::is_gaussian_avatar_run(run)) {  // .ply or glTF by extension (docs/gaussian_avatars.md)
           auto trained = fskin::TrainedGaussianAvatar::load(run);
           const fskin::ImageDataset dataset(data.empty() ? trained.options.data_dir : data);
-          fskin::GaussianGltfOptions file;
+          fskin::GaussianExportOptions file;
           file.bones = given;
           file.fps = fps;
           file.influences = influences;

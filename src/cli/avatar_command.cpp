@@ -422,7 +422,7 @@ void register_avatar(CLI::App& app) {
                   "--influences applies to glTF; the .ply keeps every joint's weight");
       auto trained = TrainedGaussianAvatar::load(exported->run);
       const ImageDataset data(exported->data.empty() ? trained.options.data_dir : exported->data);
-      GaussianGltfOptions file;
+      GaussianExportOptions file;
       if (!exported->split.empty()) file.bones = data.load_split(exported->split).bone_transforms;
       if (!exported->bones.empty()) file.bones = load_bone_transforms(exported->bones, data.character().num_joints());
       file.fps = exported->fps;

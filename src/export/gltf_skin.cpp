@@ -33,12 +33,8 @@ void add_skin_influences(tinygltf::Model& model, BufferWriter& writer, tinygltf:
     joints.type = TINYGLTF_TYPE_VEC4;
     joints.count = static_cast<size_t>(V);
     primitive.attributes["JOINTS_" + std::to_string(set)] = writer.add_accessor(joints);
-    const int weights_accessor = writer.add_floats(joint_weights.narrow(1, 4 * set, 4).contiguous(), TINYGLTF_TYPE_VEC4,
-                                                   TINYGLTF_TARGET_ARRAY_BUFFER);
-    // Only positions need min/max; keep the weights' accessors lean.
-    model.accessors[weights_accessor].minValues.clear();
-    model.accessors[weights_accessor].maxValues.clear();
-    primitive.attributes["WEIGHTS_" + std::to_string(set)] = weights_accessor;
+    primitive.attributes["WEIGHTS_" + std::to_string(set)] = writer.add_floats(
+        joint_weights.narrow(1, 4 * set, 4), TINYGLTF_TYPE_VEC4, TINYGLTF_TARGET_ARRAY_BUFFER, /*bounds=*/false);
   }
 }
 
@@ -64,10 +60,7 @@ int add_skinned_node(tinygltf::Model& model, BufferWriter& writer, const Skeleto
   skin.skeleton = 0;
   for (int64_t j = 0; j < J; ++j) skin.joints.push_back(static_cast<int>(j));
   const auto column_major = inverse_bind.transpose(1, 2).to(torch::kFloat32).contiguous().view({J, 16});
-  const int ibm = writer.add_floats(column_major, TINYGLTF_TYPE_MAT4, 0);
-  model.accessors[ibm].minValues.clear();
-  model.accessors[ibm].maxValues.clear();
-  skin.inverseBindMatrices = ibm;
+  skin.inverseBindMatrices = writer.add_floats(column_major, TINYGLTF_TYPE_MAT4, 0, /*bounds=*/false);
   model.skins.push_back(skin);
   tinygltf::Node mesh_node;
   mesh_node.name = name;
@@ -97,9 +90,7 @@ void add_joint_animation(tinygltf::Model& model, BufferWriter& writer, const Ske
     tinygltf::AnimationSampler sampler;
     sampler.input = input;
     sampler.interpolation = "LINEAR";
-    sampler.output = writer.add_floats(values.contiguous(), type, 0);
-    model.accessors[sampler.output].minValues.clear();
-    model.accessors[sampler.output].maxValues.clear();
+    sampler.output = writer.add_floats(values, type, 0, /*bounds=*/false);
     clip.samplers.push_back(sampler);
     tinygltf::AnimationChannel channel;
     channel.sampler = static_cast<int>(clip.samplers.size()) - 1;

@@ -67,10 +67,8 @@ void write_skinned_gltf(const std::string& path, const SkinnedCharacter& charact
                 path, c10::str(character.mesh.colors.sizes()));
     const auto srgb = character.mesh.colors.to(torch::kFloat32) / 255.0f;
     const auto linear = torch::where(srgb <= 0.04045f, srgb / 12.92f, ((srgb + 0.055f) / 1.055f).pow(2.4f)).contiguous();
-    const int colors = writer.add_floats(linear, TINYGLTF_TYPE_VEC3, TINYGLTF_TARGET_ARRAY_BUFFER);
-    model.accessors[colors].minValues.clear();
-    model.accessors[colors].maxValues.clear();
-    primitive.attributes["COLOR_0"] = colors;
+    primitive.attributes["COLOR_0"] =
+        writer.add_floats(linear, TINYGLTF_TYPE_VEC3, TINYGLTF_TARGET_ARRAY_BUFFER, /*bounds=*/false);
   }
   const auto faces = character.mesh.faces.to(torch::kInt32).contiguous();
   tinygltf::Accessor indices;

@@ -7,6 +7,7 @@
 #include "fskin/data/point_sampling.h"
 #include "fskin/data/random.h"
 #include "fskin/fields/preset_skinning_field.h"
+#include "fskin/geometry/character_size.h"
 #include "fskin/gaussians/gaussian_projection.h"
 #include "fskin/gaussians/spherical_harmonics.h"
 #include "fskin/ops/gaussian_rasterization.h"
@@ -93,9 +94,9 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
     rotations = matrix_to_quaternion(torch::stack({x, y, z}, 2)).to(torch::kFloat32);
   }
   if (options_.non_rigid) {
-    const auto low = std::get<0>(v.min(0)), high = std::get<0>(v.max(0));
-    non_rigid_ = register_module("non_rigid", NonRigidOffset(bones_, low, high, (high - low).max().item<double>(),
-                                                             options_.non_rigid_network));
+    non_rigid_ = register_module(
+        "non_rigid", NonRigidOffset(bones_, std::get<0>(v.min(0)), std::get<0>(v.max(0)),
+                                    character_size(v, "gaussian avatar: canonical vertices"), options_.non_rigid_network));
   }
   log_scales_ = register_parameter("log_scales", log_scales);
   rotations_ = register_parameter("rotations", rotations);

@@ -11,6 +11,7 @@
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
+#include "fskin/gaussians/gaussian_gltf.h"
 #include "fskin/util/atomic_file.h"
 
 namespace fskin {
@@ -85,7 +86,7 @@ void write_gaussian_ply(const std::string& path, GaussianAvatarImpl& avatar, con
 }
 
 void write_gaussian_avatar_file(const std::string& path, GaussianAvatarImpl& avatar, const Skeleton& skeleton,
-                                const GaussianGltfOptions& options) {
+                                const GaussianExportOptions& options) {
   const auto extension = std::filesystem::path(path).extension().string();
   if (extension == ".ply") {
     write_gaussian_ply(path, avatar, skeleton, options.bones, options.fps);

@@ -16,18 +16,15 @@ namespace {
 
 constexpr const char* kExtension = "KHR_gaussian_splatting";
 
-// A float accessor without the min/max that only positions need.
-int add_attribute(tinygltf::Model& model, gltf::BufferWriter& writer, const torch::Tensor& values, int type) {
-  const int accessor = writer.add_floats(values.to(torch::kFloat32).contiguous(), type, TINYGLTF_TARGET_ARRAY_BUFFER);
-  model.accessors[accessor].minValues.clear();
-  model.accessors[accessor].maxValues.clear();
-  return accessor;
+// A float vertex attribute without the min/max that only positions need.
+int add_attribute(gltf::BufferWriter& writer, const torch::Tensor& values, int type) {
+  return writer.add_floats(values, type, TINYGLTF_TARGET_ARRAY_BUFFER, /*bounds=*/false);
 }
 
 }  // namespace
 
 void write_gaussian_gltf(const std::string& path, GaussianAvatarImpl& avatar, const Skeleton& skeleton,
-                         const GaussianGltfOptions& options) {
+                         const GaussianExportOptions& options) {
   torch::NoGradGuard no_grad;
   skeleton.validate(path + ": skeleton");
   const bool binary = gltf::is_binary_path(path);
@@ -53,27 +50,27 @@ void write_gaussian_gltf(const std::string& path, GaussianAvatarImpl& avatar, co
   primitive.mode = TINYGLTF_MODE_POINTS;
   const std::string prefix = std::string(kExtension) + ":";
   primitive.attributes["POSITION"] =
-      writer.add_floats(avatar.means().detach().contiguous(), TINYGLTF_TYPE_VEC3, TINYGLTF_TARGET_ARRAY_BUFFER);
+      writer.add_floats(avatar.means().detach(), TINYGLTF_TYPE_VEC3, TINYGLTF_TARGET_ARRAY_BUFFER);
   // fskin's quaternions are (w, x, y, z) and unnormalised; the extension's are unit (x, y, z, w).
   const auto q = avatar.rotations().detach();
   const auto unit = q / q.norm(2, 1, true).clamp_min(1e-12);
   primitive.attributes[prefix + "ROTATION"] =
-      add_attribute(model, writer, torch::cat({unit.narrow(1, 1, 3), unit.narrow(1, 0, 1)}, 1), TINYGLTF_TYPE_VEC4);
+      add_attribute(writer, torch::cat({unit.narrow(1, 1, 3), unit.narrow(1, 0, 1)}, 1), TINYGLTF_TYPE_VEC4);
   primitive.attributes[prefix + "SCALE"] =
-      add_attribute(model, writer, torch::exp(avatar.log_scales().detach()), TINYGLTF_TYPE_VEC3);
+      add_attribute(writer, torch::exp(avatar.log_scales().detach()), TINYGLTF_TYPE_VEC3);
   const auto opacity = torch::sigmoid(avatar.opacity_logits().detach());
-  primitive.attributes[prefix + "OPACITY"] = add_attribute(model, writer, opacity.unsqueeze(1), TINYGLTF_TYPE_SCALAR);
+  primitive.attributes[prefix + "OPACITY"] = add_attribute(writer, opacity.unsqueeze(1), TINYGLTF_TYPE_SCALAR);
   // Coefficient k of degree l is column l^2 + k of fskin's [N, (degree + 1)^2, 3] (3DGS's order).
   const auto sh = avatar.sh().detach();
   for (int64_t l = 0; l <= avatar.sh_degree(); ++l) {
     for (int64_t k = 0; k <= 2 * l; ++k) {
       primitive.attributes[prefix + "SH_DEGREE_" + std::to_string(l) + "_COEF_" + std::to_string(k)] =
-          add_attribute(model, writer, sh.select(1, l * l + k), TINYGLTF_TYPE_VEC3);
+          add_attribute(writer, sh.select(1, l * l + k), TINYGLTF_TYPE_VEC3);
     }
   }
   const auto base_color = spherical_harmonics_dc_color(sh.select(1, 0)).clamp(0, 1);
   primitive.attributes["COLOR_0"] =
-      add_attribute(model, writer, torch::cat({base_color, opacity.unsqueeze(1)}, 1), TINYGLTF_TYPE_VEC4);
+      add_attribute(writer, torch::cat({base_color, opacity.unsqueeze(1)}, 1), TINYGLTF_TYPE_VEC4);
   gltf::add_skin_influences(model, writer, primitive, weights, options.influences);
   tinygltf::Value::Object extension;
   extension["kernel"] = tinygltf::Value(std::string("ellipse"));

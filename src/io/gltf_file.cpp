@@ -101,7 +101,7 @@ int BufferWriter::add_view(const void* bytes, size_t size, int target) {
   return static_cast<int>(model_.bufferViews.size()) - 1;
 }
 
-int BufferWriter::add_floats(const torch::Tensor& values, int type, int target) {
+int BufferWriter::add_floats(const torch::Tensor& values, int type, int target, bool bounds) {
   const auto contiguous = values.to(torch::kFloat32).contiguous();
   const int view = add_view(contiguous.data_ptr<float>(), contiguous.numel() * sizeof(float), target);
   tinygltf::Accessor accessor;
@@ -109,6 +109,7 @@ int BufferWriter::add_floats(const torch::Tensor& values, int type, int target) 
   accessor.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
   accessor.type = type;
   accessor.count = static_cast<size_t>(contiguous.size(0));
+  if (!bounds) return add_accessor(accessor);
   const auto columns = contiguous.reshape({contiguous.size(0), -1}).to(torch::kFloat64);
   const auto lower = std::get<0>(columns.min(0)), upper = std::get<0>(columns.max(0));
   for (int64_t c = 0; c < columns.size(1); ++c) {

@@ -30,8 +30,9 @@ class BufferWriter {
   int add_view(const void* bytes, size_t size, int target);
   // float32 [count, components] as an accessor of `type` (VEC3, SCALAR, ...),
   // with the per-component min/max that glTF requires for positions and
-  // animation inputs.
-  int add_floats(const torch::Tensor& values, int type, int target);
+  // animation inputs unless `bounds` is false (other attributes, animation
+  // outputs, matrices: no use for them).
+  int add_floats(const torch::Tensor& values, int type, int target, bool bounds = true);
   int add_accessor(const tinygltf::Accessor& accessor);
 
  private:

@@ -1,7 +1,9 @@
 #pragma once
 // Shared by the export tests (PLY and glTF): an avatar whose every parameter
-// varies, and a renderer of Gaussians read back from a file, posed and drawn
-// as the files' documentation says, by the tests' own code on fskin's ops.
+// varies, a renderer of Gaussians read back from a file, posed and drawn as
+// the files' documentation says, by the tests' own code on fskin's ops, and
+// its comparison with the avatar's own render.
+#include <gtest/gtest.h>
 #include <torch/torch.h>
 
 #include <Eigen/Core>
@@ -62,6 +64,20 @@ inline std::tuple<torch::Tensor, torch::Tensor> render_file_gaussians(const File
   const auto drawn = g.antialiased ? g.opacities * projected.opacity_compensation : g.opacities;
   return rasterize_gaussians(projected.means2d, projected.conics, colors, drawn, projected.depths, projected.radii,
                              torch::ones({3}), camera.width, camera.height);
+}
+
+// The file's Gaussians posed by `file_bones` render as `avatar` posed by
+// `bones` (over white): every pixel's colour and alpha within `bound`, and
+// the avatar covers a part of the picture worth comparing.
+inline void expect_renders_as_avatar(const FileGaussians& g, const torch::Tensor& file_bones,
+                                     GaussianAvatarImpl& avatar, const torch::Tensor& bones,
+                                     const PinholeCamera& camera, double bound) {
+  const auto [image, alpha] = render_file_gaussians(g, file_bones, camera);
+  torch::NoGradGuard no_grad;
+  const auto expected = avatar.render(bones, camera, {1, 1, 1});
+  EXPECT_GT(expected.alpha.sum().item<double>(), 50.0);
+  EXPECT_LT((image - expected.image).abs().max().item<double>(), bound);
+  EXPECT_LT((alpha - expected.alpha).abs().max().item<double>(), bound);
 }
 
 }  // namespace fskin::testing

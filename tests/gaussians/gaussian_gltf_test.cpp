@@ -94,7 +94,7 @@ TEST(GaussianGltf, TheFilePosedWithItsOwnSkinRendersAsTheAvatar) {
   const auto split = dataset.load_split("train");
   auto avatar = testing::varied_gaussian_avatar(dataset.character(), 2000, 2);  // every parameter matters
   const auto path = (testing::temp_dir("gaussian_gltf") / "avatar.glb").string();
-  GaussianGltfOptions gltf;
+  GaussianExportOptions gltf;
   gltf.bones = split.bone_transforms.narrow(0, 0, 3);
   gltf.fps = 24;
   gltf.influences = 0;  // every weight: the file poses exactly as the avatar
@@ -150,12 +150,8 @@ TEST(GaussianGltf, TheFilePosedWithItsOwnSkinRendersAsTheAvatar) {
     EXPECT_LT((bones - gltf.bones[frame]).abs().max().item<double>(), 1e-4) << "frame " << frame;
     const testing::FileGaussians file{means, rotation_from_xyzw(rotation_xyzw), scales, opacities, sh, weights,
                                       antialiased};
-    const auto [image, alpha] = testing::render_file_gaussians(file, bones, camera);
-    torch::NoGradGuard no_grad;
-    const auto expected = avatar->render(split.bone_transforms[frame], camera, {1, 1, 1});
-    EXPECT_GT(expected.alpha.sum().item<double>(), 50.0);
-    EXPECT_LT((image - expected.image).abs().max().item<double>(), 2e-3) << "frame " << frame;
-    EXPECT_LT((alpha - expected.alpha).abs().max().item<double>(), 2e-3) << "frame " << frame;
+    SCOPED_TRACE("frame " + std::to_string(frame));
+    testing::expect_renders_as_avatar(file, bones, *avatar, split.bone_transforms[frame], camera, 2e-3);
   }
 }
 
@@ -177,7 +173,7 @@ TEST(GaussianGltf, FourInfluencesAndBadInputs) {
   EXPECT_EQ(model.skins.at(0).joints.size(), static_cast<size_t>(dataset.character().num_joints()));
   testing::expect_error(
       [&] {
-        GaussianGltfOptions bad;
+        GaussianExportOptions bad;
         bad.bones = torch::eye(4).expand({2, 3, 4, 4});
         write_gaussian_gltf((dir / "a.glb").string(), *avatar, dataset.character().skeleton, bad);
       },
@@ -186,7 +182,7 @@ TEST(GaussianGltf, FourInfluencesAndBadInputs) {
       [&] { write_gaussian_gltf((dir / "b.obj").string(), *avatar, dataset.character().skeleton); }, {"b.obj"});
   testing::expect_error(
       [&] {
-        GaussianGltfOptions bad;
+        GaussianExportOptions bad;
         bad.fps = 0;
         write_gaussian_gltf((dir / "c.glb").string(), *avatar, dataset.character().skeleton, bad);
       },
@@ -202,7 +198,7 @@ TEST(GaussianGltf, PassesTheKhronosValidatorAndLoadsInThreeJs) {
   const auto dir = testing::temp_dir("gaussian_gltf_check");
   const auto glb = (dir / "avatar.glb").string(), gltf = (dir / "avatar.gltf").string();
   const auto log = (dir / "check.log").string();
-  GaussianGltfOptions file;
+  GaussianExportOptions file;
   file.bones = dataset.load_split("train").bone_transforms.narrow(0, 0, 2);
   write_gaussian_gltf(glb, *avatar, dataset.character().skeleton, file);
   file.influences = 0;

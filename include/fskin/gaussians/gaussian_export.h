@@ -22,21 +22,30 @@
 #include <string>
 
 #include "fskin/gaussians/gaussian_avatar.h"
-#include "fskin/gaussians/gaussian_gltf.h"
 #include "fskin/skeleton/skeleton.h"
 
 namespace fskin {
+
+// What an exported file animates and how (gaussian_gltf.h, write_gaussian_avatar_file).
+struct GaussianExportOptions {
+  torch::Tensor bones;  // [F, J, 4, 4] canonical -> posed, an animation; undefined: none
+  double fps = 30;
+  // glTF only (the PLY keeps every weight): influences per Gaussian, the
+  // largest weights, renormalised, in sets of four (4: what every engine
+  // reads); 0 keeps every joint's weight.
+  int64_t influences = 4;
+  std::string animation_name = "poses";
+};
 
 // bones: [F, J, 4, 4] for an animation, or undefined. Written atomically;
 // errors name `path`.
 void write_gaussian_ply(const std::string& path, GaussianAvatarImpl& avatar, const Skeleton& skeleton,
                         const torch::Tensor& bones = {}, double fps = 30);
 
-// By path's extension: .ply as above (every joint's weight: options'
-// influences apply to glTF only), .glb / .gltf as gaussian_gltf.h; anything
-// else is an error naming path. What `fskin avatar
-// export` and Python's export_avatar write for a Gaussian run.
+// By path's extension: .ply as above, .glb / .gltf as gaussian_gltf.h;
+// anything else is an error naming path. What `fskin avatar export` and
+// Python's export_avatar write for a Gaussian run.
 void write_gaussian_avatar_file(const std::string& path, GaussianAvatarImpl& avatar, const Skeleton& skeleton,
-                                const GaussianGltfOptions& options = {});
+                                const GaussianExportOptions& options = {});
 
 }  // namespace fskin

@@ -30,22 +30,14 @@
 #include <string>
 
 #include "fskin/gaussians/gaussian_avatar.h"
+#include "fskin/gaussians/gaussian_export.h"
 #include "fskin/skeleton/skeleton.h"
 
 namespace fskin {
 
-struct GaussianGltfOptions {
-  torch::Tensor bones;  // [F, J, 4, 4] canonical -> posed, an animation; undefined: none
-  double fps = 30;
-  // Influences per Gaussian: the largest weights, renormalised, in sets of
-  // four (4: what every engine reads); 0 keeps every joint's weight.
-  int64_t influences = 4;
-  std::string animation_name = "poses";
-};
-
 // Writes `avatar` posed by `skeleton` to path (.glb or .gltf) atomically;
 // errors name `path`.
 void write_gaussian_gltf(const std::string& path, GaussianAvatarImpl& avatar, const Skeleton& skeleton,
-                         const GaussianGltfOptions& options = {});
+                         const GaussianExportOptions& options = {});
 
 }  // namespace fskin
