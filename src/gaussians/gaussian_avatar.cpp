@@ -132,7 +132,9 @@ PosedGaussians GaussianAvatarImpl::pose(const torch::Tensor& bones) {
 GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const PinholeCamera& camera,
                                           const std::array<double, 3>& background) {
   const auto posed = pose(bones);
-  const auto projected = project_gaussians(posed.means, posed.covariances, camera);
+  ProjectionOptions projection;
+  projection.compensate = options_.antialiased;
+  const auto projected = project_gaussians(posed.means, posed.covariances, camera, projection);
   // View directions in canonical space: A^T (mean' - eye), normalised.
   const Eigen::Vector3d eye = camera.centre();
   const auto eye_tensor = torch::tensor({eye.x(), eye.y(), eye.z()}, torch::kFloat64).to(means_.options());

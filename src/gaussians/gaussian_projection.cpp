@@ -59,9 +59,11 @@ ProjectedGaussians project_gaussians(const torch::Tensor& means, const torch::Te
   const auto drawn = in_front & (det > 0) & torch::isfinite(det);
   const auto safe_det = torch::where(drawn, det, torch::ones_like(det));
   out.conics = torch::stack({c / safe_det, -b / safe_det, a / safe_det}, 1);
-  // Floored below 1e-12 (a footprint of no area): sqrt's slope there is finite and the factor ~0.
-  const auto ratio = ((a0 * c0 - b * b) / safe_det).clamp(1e-12, 1.0);
-  out.opacity_compensation = torch::where(drawn, torch::sqrt(ratio), torch::ones_like(ratio));
+  if (options.compensate) {
+    // Floored below 1e-12 (a footprint of no area): sqrt's slope there is finite and the factor ~0.
+    const auto ratio = ((a0 * c0 - b * b) / safe_det).clamp(1e-12, 1.0);
+    out.opacity_compensation = torch::where(drawn, torch::sqrt(ratio), torch::ones_like(ratio));
+  }
   torch::NoGradGuard no_grad;
   const auto middle = 0.5 * (a + c);
   const auto largest = middle + torch::sqrt(torch::clamp_min(middle * middle - det, 0.0));

@@ -55,7 +55,9 @@ inline std::tuple<torch::Tensor, torch::Tensor> render_file_gaussians(const File
   const auto rs = g.rotations * g.scales.unsqueeze(1);
   const auto covariances =
       torch::matmul(torch::matmul(linear, torch::matmul(rs, rs.transpose(1, 2))), linear.transpose(1, 2));
-  const auto projected = project_gaussians(posed_means, covariances, camera);
+  ProjectionOptions projection;
+  projection.compensate = g.antialiased;
+  const auto projected = project_gaussians(posed_means, covariances, camera, projection);
   const Eigen::Vector3d eye = camera.centre();
   const auto eye_tensor = torch::tensor({eye.x(), eye.y(), eye.z()}).to(torch::kFloat32);
   const auto view =

@@ -111,7 +111,10 @@ TEST(GaussianProjection, TheDilationsCompensationKeepsASmallFootprintsIntegrated
   const double sigma = sigma_pixels * depth / 100;
   const auto means = torch::tensor({0.0, 0.0, depth}, torch::kFloat64).view({1, 3});
   const auto covariances = (sigma * sigma * torch::eye(3, torch::kFloat64)).unsqueeze(0);
-  const auto p = project_gaussians(means, covariances, camera);
+  ProjectionOptions compensated;
+  compensated.compensate = true;
+  const auto p = project_gaussians(means, covariances, camera, compensated);
+  EXPECT_FALSE(project_gaussians(means, covariances, camera).opacity_compensation.defined());
   EXPECT_NEAR(p.opacity_compensation[0].item<double>(), std::sqrt(0.25 * 0.25 / (0.55 * 0.55)), 1e-9);
   const auto covered = [&](const torch::Tensor& opacities) {
     const auto colors = torch::ones({1, 3}, torch::kFloat64), background = torch::zeros({3}, torch::kFloat64);
@@ -135,7 +138,9 @@ TEST(GaussianProjection, TheCompensationsGradientMatchesFiniteDifferences) {
                                                torch::tensor({0.8, 0.3, -0.2, 0.1}, torch::kFloat64).view({1, 4}));
   auto variable = covariance.clone().requires_grad_(true);
   const auto compensation = [&](const torch::Tensor& c) {
-    return project_gaussians(means, c, camera).opacity_compensation[0];
+    ProjectionOptions compensated;
+    compensated.compensate = true;
+    return project_gaussians(means, c, camera, compensated).opacity_compensation[0];
   };
   const double value = compensation(variable).item<double>();
   EXPECT_GT(value, 0.05);

@@ -14,7 +14,8 @@
 // (Yu et al. 2024, eq. 9; gsplat's "antialiased" mode),
 //   rho = sqrt(det(Sigma') / det(Sigma' + s I)),
 // which keeps a footprint's integrated opacity as the dilation spreads it;
-// the caller multiplies opacities by it when it renders antialiased.
+// computed when `compensate` asks for it, the caller multiplies opacities by
+// it when it renders antialiased.
 //
 // Per-Gaussian algebra in LibTorch operations on [N] tensors, differentiable
 // by autograd; the pixel loop, where fusion pays, is the rasteriser's op.
@@ -28,6 +29,7 @@ struct ProjectionOptions {
   double near = 0.01;     // Gaussians nearer than this along the view (camera z) are not drawn
   double dilation = 0.3;  // added to the 2-D covariance's diagonal, pixels^2
   double extent = 3.0;    // a footprint's radius in standard deviations of its widest axis
+  bool compensate = false;  // also return opacity_compensation
 };
 
 struct ProjectedGaussians {
@@ -35,7 +37,8 @@ struct ProjectedGaussians {
   torch::Tensor conics;   // [N, 3] (a, b, c): the inverse 2-D covariance [[a, b], [b, c]]
   torch::Tensor depths;   // [N] camera z
   torch::Tensor radii;    // [N] pixels, 0 where not drawn (behind `near`, degenerate); no gradient
-  torch::Tensor opacity_compensation;  // [N] rho above, in [0, 1] (1 where not drawn); differentiable
+  torch::Tensor opacity_compensation;  // [N] rho above, in [0, 1] (1 where not drawn); differentiable;
+                                       // undefined unless options.compensate
 };
 
 // Covariances R diag(s)^2 R^T [N, 3, 3] of Gaussians with scales [N, 3]
