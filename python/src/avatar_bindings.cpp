@@ -136,7 +136,7 @@ void bind_avatars(py::module_& m) {
         fskin::RefinedPoses refined;
         {
           py::gil_scoped_release release;
-          refined = fskin::refined_poses(run);
+          refined = fskin::is_gaussian_avatar_run(run) ? fskin::refined_gaussian_poses(run) : fskin::refined_poses(run);
         }
         py::dict out;
         out["given"] = refined.given;
@@ -243,10 +243,9 @@ void bind_avatars(py::module_& m) {
         fskin::PoseFittingOptions fitting;
         fitting.steps = fit_poses;
         py::gil_scoped_release release;
-        const bool gaussians = fskin::is_gaussian_avatar_run(run);
-        FSKIN_CHECK(!gaussians || fit_poses == 0, "{}: fit_poses is not available for Gaussian avatars yet", run);
-        const auto scores = gaussians ? fskin::evaluate_gaussian_avatar_run(run, data, split, max_images, false)
-                                      : fskin::evaluate_avatar_run(run, data, split, max_images, false, fitting);
+        const auto scores = fskin::is_gaussian_avatar_run(run)
+                                 ? fskin::evaluate_gaussian_avatar_run(run, data, split, max_images, false, fitting)
+                                 : fskin::evaluate_avatar_run(run, data, split, max_images, false, fitting);
         py::gil_scoped_acquire acquire;
         return py::module_::import("json").attr("loads")(scores.to_json());
       },

@@ -191,8 +191,18 @@ def test_gaussian_avatars_train_evaluate_render_and_export(tmp_path):
     assert document["accessors"][document["animations"][0]["samplers"][0]["input"]]["count"] == len(bones)
     with pytest.raises(fskin.Error, match="avatar.obj"):
         fskin.export_avatar(run, str(tmp_path / "avatar.obj"))
-    with pytest.raises(fskin.Error, match="fit_poses is not available"):
-        fskin.evaluate_avatar(run, split="train", fit_poses=2)
+    assert fskin.evaluate_avatar(run, split="novel_pose", max_images=1, fit_poses=2)["pose_fitting_steps"] == 2
+    # Noisy poses refined while training, and shading by a learned lighting of the posed normal.
+    fskin.perturb_poses(str(tmp_path / "images"), str(tmp_path / "noisy"), degrees=5.0)
+    refined_run = str(tmp_path / "refined")
+    fskin.train_gaussian_avatar(str(tmp_path / "noisy"), refined_run, steps=5,
+                                settings=["model.gaussians.initial=300", "pose_refinement.enabled=true",
+                                          "pose_refinement.learning_rate=0.01", "model.shading=irradiance"])
+    refined = fskin.refined_poses(refined_run)
+    assert refined["given"].shape == refined["refined"].shape == (2, body.num_joints, 4, 4)
+    assert not torch.equal(refined["given"], refined["refined"])
+    with pytest.raises(fskin.Error, match="does not refine poses"):
+        fskin.refined_poses(run)
     with pytest.raises(fskin.Error, match="unknown key"):
         fskin.train_gaussian_avatar(str(tmp_path / "images"), str(tmp_path / "bad"), steps=1,
                                     settings=["model.gaussians.colour=1"])

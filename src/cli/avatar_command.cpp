@@ -87,7 +87,7 @@ RenderableAvatar load_renderable(const std::string& run) {
                            const std::array<double, 3>& background) {
       return trained->render(bones, camera, background).first;
     };
-    out.bones_for = [](const torch::Tensor& given) { return given; };
+    out.bones_for = [trained](const torch::Tensor& given) { return trained->bones_for(given); };
     out.appearance_for = [](const torch::Tensor&) { return torch::Tensor(); };
     out.centre = [trained](const torch::Tensor& bones) {
       torch::NoGradGuard no_grad;
@@ -147,9 +147,10 @@ void register_avatar(CLI::App& app) {
   t->add_option("--checkpoint-every", train->checkpoint_every, "steps between checkpoints")->check(CLI::PositiveNumber);
   t->add_option("--seed", train->seed, "random seed");
   t->add_option("--shading", train->avatar.field.shading,
-                 "none: one colour per canonical point; lambert: that colour shaded by a learned distant light "
-                 "through the posed surface (captures under fixed lights)")
-      ->check(CLI::IsMember({"none", "lambert"}));
+                 "none: one colour per canonical point; lambert (volume): that colour shaded by a learned distant "
+                 "light through the posed surface; irradiance (gaussians): shaded by learned distant lighting of "
+                 "the posed normal (captures under fixed lights)")
+      ->check(CLI::IsMember({"none", "lambert", "irradiance"}));
   t->add_option("--appearance-codes", train->avatar.field.appearance_dim,
                 "length of a learned code per training frame that the colour is conditioned on (light that "
                 "changes from frame to frame; new poses get the codes' mean); 0: none")
@@ -178,8 +179,7 @@ void register_avatar(CLI::App& app) {
     if (*representation == "gaussians") {
       // The volume avatar's own options do not apply.
       for (const char* name : {"--rays", "--images-per-step", "--lr", "--background", "--samples", "--levels",
-                               "--log2-table-size", "--shading", "--appearance-codes", "--learn-skinning",
-                               "--refine-poses"}) {
+                               "--log2-table-size", "--appearance-codes", "--learn-skinning"}) {
         FSKIN_CHECK(t->count(name) == 0, "{} is an option of the volume avatar, not of --representation gaussians",
                     name);
       }
@@ -189,6 +189,8 @@ void register_avatar(CLI::App& app) {
       base.seed = train->seed;
       if (t->count("--steps") > 0) base.steps = train->steps;
       if (t->count("--checkpoint-every") > 0) base.checkpoint_every = train->checkpoint_every;
+      if (t->count("--refine-poses") > 0) base.refine_poses = true;
+      if (t->count("--shading") > 0) base.avatar.shading = train->avatar.field.shading;
       GaussianTrainOptions options = configure_gaussian_options(base, *config_file, *assignments);
       options.resume = train->resume;
       options.progress = !*quiet;
@@ -236,11 +238,10 @@ void register_avatar(CLI::App& app) {
     PoseFittingOptions fitting;
     fitting.steps = eval->fit_poses;
     const bool gaussians = is_gaussian_avatar_run(eval->run);
-    FSKIN_CHECK(!gaussians || eval->fit_poses == 0, "{}: --fit-poses is not available for Gaussian avatars yet",
-                eval->run);
     const auto scores =
-        gaussians ? evaluate_gaussian_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet)
-                  : evaluate_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet, fitting);
+        gaussians
+            ? evaluate_gaussian_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet, fitting)
+            : evaluate_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet, fitting);
     std::printf("%s", scores.to_table().c_str());
     const std::string json =
         eval->json.empty() ? (fs::path(eval->run) / fmt::format("eval_{}.json", eval->split)).string() : eval->json;
@@ -258,7 +259,8 @@ void register_avatar(CLI::App& app) {
   p->add_option("run", poses->run, "avatar run directory")->required();
   p->add_option("--out", poses->out, "write given, refined (and exact) bone transforms to this .npz");
   p->callback([poses] {
-    const auto refined = refined_poses(poses->run);
+    const auto refined =
+        is_gaussian_avatar_run(poses->run) ? refined_gaussian_poses(poses->run) : refined_poses(poses->run);
     std::printf("%s\n", refined.to_string().c_str());
     if (!poses->out.empty()) {
       refined.save(poses->out);
@@ -431,6 +433,10 @@ void register_avatar(CLI::App& app) {
       if (trained.avatar->options().non_rigid) {
         std::printf("note: the avatar's non-rigid offsets depend on the pose and are not in the file: players "
                     "pose its Gaussians by skinning alone\n");
+      }
+      if (trained.avatar->shading()) {
+        std::printf("note: the avatar's learned lighting is not in the file: its colours are the albedo, for the "
+                    "player's own lights to shade\n");
       }
       const auto& bones = file.bones;
       std::printf("wrote %s (%lld Gaussians, %lld joints%s)\n", exported->out.c_str(),

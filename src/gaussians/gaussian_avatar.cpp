@@ -43,6 +43,8 @@ void GaussianAvatarOptions::validate() const {
               "gaussian avatar: the skinning source must be \"surface\" or \"grid\", got \"{}\"", skinning_source);
   FSKIN_CHECK(skinning_grid_resolution >= 4 && skinning_grid_resolution <= 512,
               "gaussian avatar: skinning grid resolution must be within 4..512, got {}", skinning_grid_resolution);
+  FSKIN_CHECK(shading == "none" || shading == "irradiance",
+              "gaussian avatar: shading must be \"none\" or \"irradiance\", got \"{}\"", shading);
 }
 
 GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvatarOptions options, uint64_t seed)
@@ -77,8 +79,10 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
   means_ = register_parameter("means", points);
   auto log_scales = torch::full({n, 3}, static_cast<float>(std::log(spacing)));
   auto rotations = torch::tensor({1.0f, 0.0f, 0.0f, 0.0f}).repeat({n, 1});
-  if (options_.initial_thickness < 1) {
-    // Discs in the faces' planes: the local z axis along the face normal, that scale thinner.
+  if (options_.initial_thickness < 1 || options_.shading != "none") {
+    // Discs in the faces' planes: the local z axis along the face normal
+    // (outward where faces wind counter-clockwise seen from outside, glTF's
+    // convention), that scale thinner; shading reads the z axis as the normal.
     log_scales.select(1, 2).add_(static_cast<float>(std::log(options_.initial_thickness)));
     const auto corners = f.index_select(0, samples.faces);
     const auto a = v.index_select(0, corners.select(1, 0));
@@ -98,6 +102,7 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
         "non_rigid", NonRigidOffset(bones_, std::get<0>(v.min(0)), std::get<0>(v.max(0)),
                                     character_size(v, "gaussian avatar: canonical vertices"), options_.non_rigid_network));
   }
+  if (options_.shading == "irradiance") shading_ = register_module("shading", GaussianShading());
   log_scales_ = register_parameter("log_scales", log_scales);
   rotations_ = register_parameter("rotations", rotations);
   const double logit = std::log(options_.initial_opacity / (1 - options_.initial_opacity));
@@ -140,7 +145,10 @@ GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const Pinh
   const auto eye_tensor = torch::tensor({eye.x(), eye.y(), eye.z()}, torch::kFloat64).to(means_.options());
   const auto view = torch::matmul(posed.linear.transpose(1, 2), (posed.means - eye_tensor).unsqueeze(-1)).squeeze(-1);
   const auto directions = view / view.norm(2, 1, true).clamp_min(1e-12);
-  const auto colors = spherical_harmonics_color(sh(), directions);
+  auto colors = spherical_harmonics_color(sh(), directions);
+  if (shading_) {
+    colors = colors * shading_->forward(posed_gaussian_normals(rotations_, posed.linear));
+  }
   const auto bg = torch::tensor({background[0], background[1], background[2]}, means_.options());
   const auto opacities =
       options_.antialiased ? posed.opacities * projected.opacity_compensation : posed.opacities;

@@ -28,6 +28,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kGaussianArchiveKey = "gaussian_avatar";
+constexpr const char* kPoseCorrectionsKey = "pose_corrections";  // inside the avatar's archive
 
 std::string run_file(const std::string& run_dir) { return RunDirectory(run_dir).gaussian_avatar_config_file(); }
 
@@ -38,7 +39,8 @@ void GaussianTrainOptions::validate() const {
   density.validate();
   FSKIN_CHECK(steps >= 0, "gaussian avatar train: steps must be >= 0, got {}", steps);
   for (const double rate : {means_learning_rate, scales_learning_rate, rotations_learning_rate, opacity_learning_rate,
-                            sh_learning_rate, skinning_learning_rate, non_rigid_learning_rate}) {
+                            sh_learning_rate, skinning_learning_rate, non_rigid_learning_rate, pose_learning_rate,
+                            shading_learning_rate}) {
     FSKIN_CHECK(std::isfinite(rate) && rate > 0 && rate <= 1,
                 "gaussian avatar train: learning rates must be in (0, 1], got {}", rate);
   }
@@ -48,6 +50,8 @@ void GaussianTrainOptions::validate() const {
   FSKIN_CHECK(std::isfinite(mask_weight) && mask_weight >= 0, "gaussian avatar train: the mask weight must be >= 0");
   FSKIN_CHECK(std::isfinite(non_rigid_weight) && non_rigid_weight >= 0,
               "gaussian avatar train: losses.non_rigid.weight must be >= 0, got {}", non_rigid_weight);
+  FSKIN_CHECK(std::isfinite(pose_regularizer) && pose_regularizer >= 0,
+              "gaussian avatar train: pose_refinement.regularizer must be >= 0, got {}", pose_regularizer);
   FSKIN_CHECK(std::isfinite(skinning_weight) && skinning_weight >= 0,
               "gaussian avatar train: the skinning prior's weight must be >= 0");
   FSKIN_CHECK(std::isfinite(crop_margin) && crop_margin <= 10,
@@ -69,8 +73,12 @@ class GaussianTrainable : public Trainable {
         options_(options),
         split_(split),
         background_(data.background()),
-        size_(character_size(data.character().mesh.vertices, "gaussian avatar train: canonical vertices")) {
+        size_(character_size(data.character().mesh.vertices, "gaussian avatar train: canonical vertices")),
+        skeleton_(data.character().skeleton),
+        frame_(frames_of_images(split.bone_transforms)) {
     statistics_.reset(avatar_->size());
+    // One correction per pose, shared by the views that see it.
+    if (options.refine_poses) corrections_ = PoseCorrections(frame_bone_transforms(split.bone_transforms, frame_));
     for (int64_t i = 0; i < split.size(); ++i) {
       const int64_t w = split.images.size(2), h = split.images.size(1);
       FSKIN_CHECK(w >= 11 && h >= 11, "gaussian avatar train: images must be at least 11 x 11 (SSIM), got {} x {}", w,
@@ -102,9 +110,17 @@ class GaussianTrainable : public Trainable {
     if (avatar_->non_rigid_offset()) {
       groups.push_back({avatar_->non_rigid_offset()->parameters(), options_.non_rigid_learning_rate});
     }
+    if (avatar_->shading()) groups.push_back({avatar_->shading()->parameters(), options_.shading_learning_rate});
+    if (corrections_) groups.push_back({corrections_->parameters(), options_.pose_learning_rate});
     return groups;
   }
-  std::vector<torch::Tensor> parameters() override { return avatar_->parameters(); }
+  std::vector<torch::Tensor> parameters() override {
+    auto all = avatar_->parameters();
+    if (corrections_) {
+      for (const auto& p : corrections_->parameters()) all.push_back(p);
+    }
+    return all;
+  }
 
   void save(torch::serialize::OutputArchive& archive) override {
     torch::serialize::OutputArchive model;
@@ -112,6 +128,11 @@ class GaussianTrainable : public Trainable {
     // The density statistics, so that a resumed run densifies as an uninterrupted one.
     model.write("density_sum", statistics_.sum());
     model.write("density_count", statistics_.count());
+    if (corrections_) {
+      torch::serialize::OutputArchive poses;
+      corrections_->save(poses);
+      model.write(kPoseCorrectionsKey, poses);
+    }
     archive.write(kGaussianArchiveKey, model);
   }
   void load(torch::serialize::InputArchive& archive) override {
@@ -122,6 +143,11 @@ class GaussianTrainable : public Trainable {
     model.read("density_sum", sum);
     model.read("density_count", count);
     statistics_.restore(sum, count);
+    if (corrections_) {
+      torch::serialize::InputArchive poses;
+      model.read(kPoseCorrectionsKey, poses);
+      corrections_->load(poses);
+    }
   }
   void to(const torch::Device& device) override {
     FSKIN_CHECK(device.is_cpu(), "gaussian avatar train: trains on the CPU only so far (asked for {})", device.str());
@@ -135,12 +161,16 @@ class GaussianTrainable : public Trainable {
     const auto& camera = split_.cameras[static_cast<size_t>(i)];
     const auto& box = boxes_[static_cast<size_t>(i)];  // (u0, v0, u1, v1)
     // The camera of the box: the same rays, the picture cut to it.
-    PinholeCamera cropped = camera;
-    cropped.intrinsic(0, 2) -= static_cast<double>(box[0]);
-    cropped.intrinsic(1, 2) -= static_cast<double>(box[1]);
-    cropped.width = static_cast<int>(box[2] - box[0]);
-    cropped.height = static_cast<int>(box[3] - box[1]);
-    last_ = avatar_->render(split_.bone_transforms[i], cropped, background_);
+    const PinholeCamera cropped = camera.cropped(box[0], box[1], box[2], box[3]);
+    torch::Tensor bones = split_.bone_transforms[i];
+    if (corrections_) {
+      // Only this step's frame gets a gradient (Adam leaves the others be);
+      // the corrections stay zero-mean over the frames (PoseCorrectionsImpl::center).
+      corrections_->forget_gradients();
+      corrections_->center();
+      bones = corrections_->apply(frame_[i], skeleton_, size_);
+    }
+    last_ = avatar_->render(bones, cropped, background_);
     last_.means2d.retain_grad();
     // Density statistics in the whole picture's normalised coordinates.
     last_width_ = camera.width;
@@ -165,6 +195,11 @@ class GaussianTrainable : public Trainable {
       const auto prior = options_.skinning_weight * avatar_->skinning_corrections().square().mean();
       out.total = out.total + prior;
       out.terms.emplace_back("skinning", prior.detach());
+    }
+    if (corrections_) {
+      const auto pose_loss = options_.pose_regularizer * corrections_->squared_size({frame_[i]});
+      out.total = out.total + pose_loss;
+      out.terms.emplace_back("pose", pose_loss.detach());
     }
     if (last_.offsets.defined() && options_.non_rigid_weight > 0) {
       const auto prior = options_.non_rigid_weight * (last_.offsets / size_).square().sum(1).mean();
@@ -205,6 +240,9 @@ class GaussianTrainable : public Trainable {
   std::vector<std::array<int64_t, 4>> boxes_;  // per image, the box it is rendered in
   std::array<double, 3> background_;
   double size_;
+  Skeleton skeleton_;
+  std::vector<int64_t> frame_;            // per image: its pose's frame (frames_of_images)
+  PoseCorrections corrections_{nullptr};  // with refine_poses
   DensityStatistics statistics_;
   GaussianRender last_;  // the step's render, read by after_step
   int64_t last_width_ = 0, last_height_ = 0;
@@ -282,10 +320,32 @@ TrainedGaussianAvatar TrainedGaussianAvatar::load(const std::string& run_dir) {
   out.options = read_gaussian_run_config(config_file, run_dir);
   const auto character = load_canonical_character(run.character_file());
   out.avatar = GaussianAvatar(character, out.options.avatar, out.options.seed);
-  out.step = load_model_checkpoint(run, CheckpointChoice{}, kGaussianArchiveKey,
-                                   [&out](torch::serialize::InputArchive& archive) { out.avatar->load(archive); });
+  if (out.options.refine_poses) {
+    out.skeleton = character.skeleton;
+    out.size = character_size(character.mesh.vertices, "gaussian avatar: canonical vertices");
+  }
+  out.step = load_model_checkpoint(
+      run, CheckpointChoice{}, kGaussianArchiveKey, [&out, &run_dir](torch::serialize::InputArchive& archive) {
+        out.avatar->load(archive);
+        if (out.options.refine_poses) {
+          torch::serialize::InputArchive poses;
+          FSKIN_CHECK(archive.try_read(kPoseCorrectionsKey, poses),
+                      "{}: the run refines poses but its checkpoint holds no '{}'", run_dir, kPoseCorrectionsKey);
+          out.corrections = PoseCorrections(PoseCorrectionsImpl::read(poses));
+        }
+      });
   out.avatar->eval();
   return out;
+}
+
+torch::Tensor TrainedGaussianAvatar::bones_for(const torch::Tensor& given) const {
+  return corrections ? corrections->bones_for(given, skeleton, size) : given;
+}
+
+RefinedPoses refined_gaussian_poses(const std::string& run_dir) {
+  const auto trained = TrainedGaussianAvatar::load(run_dir);
+  FSKIN_CHECK(trained.corrections, "{}: the run does not refine poses (train with --refine-poses)", run_dir);
+  return refined_poses(*trained.corrections, trained.skeleton, trained.size, trained.options.data_dir, run_dir);
 }
 
 std::pair<torch::Tensor, torch::Tensor> TrainedGaussianAvatar::render(const torch::Tensor& bones,

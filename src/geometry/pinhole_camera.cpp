@@ -42,6 +42,17 @@ PinholeCamera PinholeCamera::supersampled(int factor) const {
   return fine;
 }
 
+PinholeCamera PinholeCamera::cropped(int64_t u0, int64_t v0, int64_t u1, int64_t v1) const {
+  FSKIN_CHECK(0 <= u0 && u0 < u1 && u1 <= width && 0 <= v0 && v0 < v1 && v1 <= height,
+              "camera: crop box [{}, {}) x [{}, {}) is not inside the {} x {} picture", u0, u1, v0, v1, width, height);
+  PinholeCamera box = *this;
+  box.intrinsic(0, 2) -= static_cast<double>(u0);
+  box.intrinsic(1, 2) -= static_cast<double>(v0);
+  box.width = static_cast<int>(u1 - u0);
+  box.height = static_cast<int>(v1 - v0);
+  return box;
+}
+
 PinholeCamera PinholeCamera::orbited(double radians, const Eigen::Vector3d& pivot) const {
   Eigen::Matrix4d turn = Eigen::Matrix4d::Identity();
   turn(0, 0) = std::cos(radians), turn(0, 2) = std::sin(radians);

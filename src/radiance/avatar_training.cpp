@@ -97,12 +97,7 @@ class AvatarTrainable : public Trainable {
         skeleton_(data.character().skeleton),
         size_(character_size(data.character().mesh.vertices, "avatar train: canonical vertices")) {
     // The views of one pose share its posed frame (and its pose correction).
-    const int64_t frames = frame_.empty() ? 0 : *std::max_element(frame_.begin(), frame_.end()) + 1;
-    std::vector<int64_t> first(static_cast<size_t>(frames), -1);
-    for (int64_t i = 0; i < split.size(); ++i) {
-      if (first[frame_[i]] < 0) first[frame_[i]] = i;
-    }
-    const auto frame_bones = split.bone_transforms.index_select(0, torch::tensor(first, torch::kInt64));
+    const auto frame_bones = frame_bone_transforms(split.bone_transforms, frame_);
     if (options.refine_poses) corrections_ = PoseCorrections(frame_bones);
     if (options.avatar.field.appearance_dim > 0)
       appearance_ = AppearanceCodes(frame_bones, options.avatar.field.appearance_dim);
@@ -370,9 +365,7 @@ TrainedAvatar TrainedAvatar::load(const std::string& run_dir) {
 }
 
 torch::Tensor TrainedAvatar::bones_for(const torch::Tensor& given) const {
-  if (!corrections) return given;
-  const int64_t frame = corrections->find(given);
-  return frame < 0 ? given : corrections->apply(frame, skeleton, size).detach();
+  return corrections ? corrections->bones_for(given, skeleton, size) : given;
 }
 
 torch::Tensor TrainedAvatar::appearance_for(const torch::Tensor& given) const {

@@ -1,5 +1,6 @@
 #include "fskin/radiance/pose_correction.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -74,6 +75,11 @@ torch::Tensor PoseCorrectionsImpl::corrected(const Skeleton& skeleton, double si
 
 int64_t PoseCorrectionsImpl::find(const torch::Tensor& bones) const { return find_frame(given_, bones); }
 
+torch::Tensor PoseCorrectionsImpl::bones_for(const torch::Tensor& given, const Skeleton& skeleton, double size) const {
+  const int64_t frame = find(given);
+  return frame < 0 ? given : apply(frame, skeleton, size).detach();
+}
+
 torch::Tensor PoseCorrectionsImpl::squared_size(const std::vector<int64_t>& frames) const {
   auto total = torch::zeros({});
   for (const int64_t f : frames) total = total + rotations_[f].pow(2).sum() + translations_[f].pow(2).sum();
@@ -100,6 +106,15 @@ torch::Tensor PoseCorrectionsImpl::rotations() const {
 
 torch::Tensor PoseCorrectionsImpl::translations() const {
   return translations_.empty() ? torch::zeros({0, 3}) : torch::stack(translations_).detach();
+}
+
+torch::Tensor frame_bone_transforms(const torch::Tensor& bone_transforms, const std::vector<int64_t>& frame_of) {
+  const int64_t frames = frame_of.empty() ? 0 : *std::max_element(frame_of.begin(), frame_of.end()) + 1;
+  std::vector<int64_t> first(static_cast<size_t>(frames), -1);
+  for (size_t i = 0; i < frame_of.size(); ++i) {
+    if (first[frame_of[i]] < 0) first[frame_of[i]] = static_cast<int64_t>(i);
+  }
+  return bone_transforms.index_select(0, torch::tensor(first, torch::kInt64));
 }
 
 std::vector<int64_t> frames_of_images(const torch::Tensor& bone_transforms) {

@@ -16,9 +16,9 @@ void PoseFittingOptions::validate() const {
               regularizer);
 }
 
-torch::Tensor fit_pose_to_image(Avatar& avatar, const ImageSplit& split, int64_t image, const torch::Tensor& bones,
-                                const std::array<double, 3>& dataset_background, const Skeleton& skeleton, double size,
-                                const PoseFittingOptions& options, const torch::Tensor& appearance) {
+torch::Tensor fit_pose(const torch::Tensor& bones, const Skeleton& skeleton, double size,
+                       const PoseFittingOptions& options, const std::vector<torch::Tensor>& frozen,
+                       const PoseImageLoss& image_loss) {
   options.validate();
   const auto given = bones.detach().to(torch::kCPU, torch::kFloat32).contiguous();
   if (options.steps == 0) return given;
@@ -35,29 +35,42 @@ torch::Tensor fit_pose_to_image(Avatar& avatar, const ImageSplit& split, int64_t
     ~Freeze() {
       for (size_t k = 0; k < parameters.size(); ++k) parameters[k].requires_grad_(required[k]);
     }
-  } freeze(avatar->parameters());
+  } freeze(frozen);
   PoseCorrections correction(given.unsqueeze(0));
   torch::optim::Adam adam(correction->parameters(), torch::optim::AdamOptions(options.learning_rate));
-  const auto background = torch::tensor({dataset_background[0], dataset_background[1], dataset_background[2]},
-                                        torch::kFloat32);
-  const auto box = mask_box(split.masks[image], 0.2);
-  // The posed grids of the given pose (dilated by a cell) hold the small corrections' samples.
-  PosedFrame frame = avatar->pose(given);
-  frame.appearance = appearance;
   for (int64_t step = 0; step < options.steps; ++step) {
-    torch::manual_seed(options.seed + static_cast<uint64_t>(step));
-    const auto rays = sample_image_rays(split, image, box, options.rays, 0.9, "dataset", background);
-    frame.bones = correction->apply(0, skeleton, size);
-    const auto rendered = avatar->render_rays(frame, rays.origins, rays.directions, rays.background, /*jitter=*/false);
-    const auto loss = avatar_ray_loss(rendered.color, rendered.opacity, rays.target, rays.mask, options.huber_delta,
-                                      options.opacity_weight)
-                          .total() +
-                      options.regularizer * correction->squared_size({0});
+    const auto loss =
+        image_loss(correction->apply(0, skeleton, size), step) + options.regularizer * correction->squared_size({0});
     adam.zero_grad();
     loss.backward();
     adam.step();
   }
   return correction->corrected(skeleton, size)[0];
+}
+
+torch::Tensor fit_pose_to_image(Avatar& avatar, const ImageSplit& split, int64_t image, const torch::Tensor& bones,
+                                const std::array<double, 3>& dataset_background, const Skeleton& skeleton, double size,
+                                const PoseFittingOptions& options, const torch::Tensor& appearance) {
+  options.validate();
+  if (options.steps == 0) return bones.detach().to(torch::kCPU, torch::kFloat32).contiguous();
+  const auto background = torch::tensor({dataset_background[0], dataset_background[1], dataset_background[2]},
+                                        torch::kFloat32);
+  const auto box = mask_box(split.masks[image], 0.2);
+  // The posed grids of the given pose (dilated by a cell) hold the small corrections' samples.
+  PosedFrame frame = avatar->pose(bones.detach().to(torch::kCPU, torch::kFloat32));
+  frame.appearance = appearance;
+  return fit_pose(bones, skeleton, size, options, avatar->parameters(),
+                  [&](const torch::Tensor& corrected, int64_t step) {
+                    torch::manual_seed(options.seed + static_cast<uint64_t>(step));
+                    const auto rays =
+                        sample_image_rays(split, image, box, options.rays, 0.9, "dataset", background);
+                    frame.bones = corrected;
+                    const auto rendered = avatar->render_rays(frame, rays.origins, rays.directions,
+                                                              rays.background, /*jitter=*/false);
+                    return avatar_ray_loss(rendered.color, rendered.opacity, rays.target, rays.mask,
+                                           options.huber_delta, options.opacity_weight)
+                        .total();
+                  });
 }
 
 }  // namespace fskin

@@ -41,18 +41,23 @@ RefinedPoses refined_poses(const std::string& run_dir) {
   torch::NoGradGuard no_grad;
   auto trained = TrainedAvatar::load(run_dir);
   FSKIN_CHECK(trained.corrections, "{}: the run does not refine poses (train with --refine-poses)", run_dir);
-  const auto& corrections = *trained.corrections;
+  return refined_poses(*trained.corrections, trained.skeleton, trained.size, trained.options.data_dir, run_dir);
+}
+
+RefinedPoses refined_poses(const PoseCorrectionsImpl& corrections, const Skeleton& skeleton, double size,
+                           const std::string& data_dir, const std::string& run_dir) {
+  torch::NoGradGuard no_grad;
   RefinedPoses out;
   out.given = corrections.given_bones();
-  out.refined = corrections.corrected(trained.skeleton, trained.size);
+  out.refined = corrections.corrected(skeleton, size);
   if (corrections.frames() > 0) {
     out.mean_rotation_degrees = corrections.rotations().norm(2, -1).mean().item<double>() * 180.0 / M_PI;
     out.mean_root_shift = corrections.translations().norm(2, -1).mean().item<double>();
   }
-  const auto pose_path = (std::filesystem::path(trained.options.data_dir) / "train" / "poses.npz").string();
+  const auto pose_path = (std::filesystem::path(data_dir) / "train" / "poses.npz").string();
   const auto file = std::filesystem::exists(pose_path) ? std::make_optional<io::NpzReader>(pose_path) : std::nullopt;
   if (file && file->contains("bone_transforms_exact")) {
-    const auto given = load_bone_transforms(pose_path, trained.skeleton.num_joints());
+    const auto given = load_bone_transforms(pose_path, skeleton.num_joints());
     const auto exact = file->tensor("bone_transforms_exact").to(torch::kFloat32);
     FSKIN_CHECK(exact.sizes() == given.sizes(), "{}: bone_transforms_exact is {}, bone_transforms {}", pose_path,
                 shape_string(exact.sizes()), shape_string(given.sizes()));
@@ -67,8 +72,8 @@ RefinedPoses refined_poses(const std::string& run_dir) {
       rows.push_back(exact[image]);
     }
     out.exact = torch::stack(rows);
-    out.given_error = pose_error(out.given, out.exact, trained.skeleton, trained.size);
-    out.refined_error = pose_error(out.refined, out.exact, trained.skeleton, trained.size);
+    out.given_error = pose_error(out.given, out.exact, skeleton, size);
+    out.refined_error = pose_error(out.refined, out.exact, skeleton, size);
   }
   return out;
 }

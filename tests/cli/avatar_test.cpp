@@ -181,13 +181,15 @@ TEST_F(AvatarCommands, GaussianAvatarsTrainEvaluateAndRender) {
   const std::string run = path("gaussians");
   ASSERT_EQ(run_cli("avatar train --data " + path("images") + " --out " + run +
                     " --representation gaussians --steps 30 --quiet --set model.gaussians.initial=800 --set "
-                    "density.start=10 --set density.every=10"),
+                    "density.start=10 --set density.every=10 --refine-poses --shading irradiance"),
             0)
       << log();
   EXPECT_NE(log().find("Gaussians; last loss"), std::string::npos) << log();
   const auto document = nlohmann::json::parse(read_file(run + "/gaussian_avatar.json"));
   EXPECT_EQ(document.at("model").at("type"), "gaussian-avatar");
   EXPECT_EQ(document.at("density").at("every"), 10);
+  EXPECT_EQ(document.at("model").at("shading"), "irradiance");
+  EXPECT_EQ(document.at("pose_refinement").at("enabled"), true);
   ASSERT_EQ(run_cli("config show " + run), 0) << log();
   EXPECT_NE(log().find("\"gaussian-avatar\""), std::string::npos) << log();
   ASSERT_EQ(run_cli("avatar eval " + run + " --split novel_pose --quiet"), 0) << log();
@@ -204,6 +206,7 @@ TEST_F(AvatarCommands, GaussianAvatarsTrainEvaluateAndRender) {
   ASSERT_EQ(run_cli("avatar export " + run + " --split train --influences 0 --out " + path("gs.glb")), 0) << log();
   EXPECT_EQ(read_file(path("gs.glb")).rfind("glTF", 0), 0u);
   EXPECT_NE(read_file(path("gs.glb")).find("KHR_gaussian_splatting:SCALE"), std::string::npos);
+  EXPECT_NE(log().find("learned lighting is not in the file"), std::string::npos) << log();
   ASSERT_NE(run_cli("avatar export " + run + " --out " + path("gs.obj")), 0);
   EXPECT_NE(log().find("gs.obj: a Gaussian avatar is written as a 3DGS .ply or a glTF"), std::string::npos) << log();
   ASSERT_NE(run_cli("avatar export " + run + " --influences 4 --out " + path("gs2.ply")), 0);
@@ -217,8 +220,17 @@ TEST_F(AvatarCommands, GaussianAvatarsTrainEvaluateAndRender) {
                     " --representation gaussians --resume --steps 2"),
             0);
   EXPECT_NE(log().find("holds a volume avatar run"), std::string::npos) << log();
-  ASSERT_NE(run_cli("avatar eval " + run + " --fit-poses 3"), 0);
-  EXPECT_NE(log().find("--fit-poses is not available for Gaussian avatars"), std::string::npos) << log();
+  // Its refined poses, and held-out poses fitted at test time.
+  ASSERT_EQ(run_cli("avatar poses " + run + " --out " + path("gs_poses.npz")), 0) << log();
+  EXPECT_NE(log().find("training frames; mean correction"), std::string::npos) << log();
+  EXPECT_TRUE(fs::exists(path("gs_poses.npz")));
+  ASSERT_EQ(run_cli("avatar eval " + run + " --fit-poses 3 --max-images 1 --quiet --json " + path("fit.json")), 0)
+      << log();
+  EXPECT_EQ(nlohmann::json::parse(read_file(path("fit.json"))).at("pose_fitting_steps"), 3);
+  ASSERT_NE(run_cli("avatar train --data " + path("images") + " --out " + path("gs3") +
+                    " --representation gaussians --shading lambert --steps 1"),
+            0);
+  EXPECT_NE(log().find("shading must be \"none\" or \"irradiance\""), std::string::npos) << log();
 }
 
 // The export itself is checked on a trained avatar (AvatarTraining in

@@ -195,6 +195,8 @@ TEST(GaussianTraining, AResumedRunRepeatsTheUninterruptedOneExactly) {
   options.density.stop_fraction = 0.8;  // densifications at 20 and 40, on both sides of the cut
   options.avatar.learned_skinning = true;  // its corrections and their moments resume too
   options.avatar.non_rigid = true;         // and the non-rigid offset's network
+  options.data_dir = testing::perturbed_tiny_dataset();
+  options.refine_poses = true;  // and the pose corrections
   train_gaussian_avatar(options);
   const auto whole = TrainedGaussianAvatar::load(options.out_dir);
   const RunDirectory run(options.out_dir);
@@ -218,6 +220,10 @@ TEST(GaussianTraining, AResumedRunRepeatsTheUninterruptedOneExactly) {
   ASSERT_EQ(whole_network.size(), resumed_network.size());
   for (size_t k = 0; k < whole_network.size(); ++k) EXPECT_TRUE(torch::equal(whole_network[k], resumed_network[k]));
   EXPECT_GT(whole_network.back().abs().max().item<double>(), 0.0);  // the last layer left zero
+  ASSERT_TRUE(whole.corrections && resumed.corrections);
+  EXPECT_TRUE(torch::equal(whole.corrections->rotations(), resumed.corrections->rotations()));
+  EXPECT_TRUE(torch::equal(whole.corrections->translations(), resumed.corrections->translations()));
+  EXPECT_GT(whole.corrections->rotations().abs().max().item<double>(), 0.0);
 }
 
 TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {

@@ -53,6 +53,21 @@ TEST(PinholeCamera, SupersamplingKeepsEveryPointInItsPlace) {
   }
 }
 
+TEST(PinholeCamera, CroppingKeepsTheRaysAndShiftsThePixels) {
+  const auto camera = ring_camera(60, 10, 64, 48);
+  const auto box = camera.cropped(10, 5, 40, 30);
+  EXPECT_EQ(box.width, 30);
+  EXPECT_EQ(box.height, 25);
+  for (const Eigen::Vector3d point : {Eigen::Vector3d(0.1, 0.9, 0.0), Eigen::Vector3d(-0.3, 0.2, 0.25)}) {
+    const Eigen::Vector2d whole = camera.project(point), part = box.project(point);
+    EXPECT_NEAR(part.x(), whole.x() - 10, 1e-9);
+    EXPECT_NEAR(part.y(), whole.y() - 5, 1e-9);
+  }
+  EXPECT_TRUE(box.centre().isApprox(camera.centre()));
+  testing::expect_error([&] { camera.cropped(10, 5, 70, 30); }, {"crop box", "64 x 48"});
+  testing::expect_error([&] { camera.cropped(10, 5, 10, 30); }, {"crop box"});
+}
+
 TEST(PinholeCamera, OrbitingTurnsTheWorldAboutTheVerticalThroughThePivot) {
   const auto camera = ring_camera(0, 0, 64, 64);
   const Eigen::Vector3d pivot(0.05, 0.85, 0.05), point(0.3, 1.2, 0.1);

@@ -120,7 +120,10 @@ TEST(PoseCorrection, ErrorsNameTheShapes) {
 
 TEST(PoseCorrection, FramesOfImagesShareEqualPoses) {
   const auto a = torch::eye(4).expand({2, 4, 4}), b = 2 * a;
-  EXPECT_EQ(frames_of_images(torch::stack({a, b, a, b, b})), (std::vector<int64_t>{0, 1, 0, 1, 1}));
+  const auto bones = torch::stack({a, b, a, b, b});
+  const auto frames = frames_of_images(bones);
+  EXPECT_EQ(frames, (std::vector<int64_t>{0, 1, 0, 1, 1}));
+  EXPECT_TRUE(torch::equal(frame_bone_transforms(bones, frames), torch::stack({a, b})));
 }
 
 TEST(PoseCorrection, PoseErrorMeasuresAngleAndJointDistance) {
@@ -173,20 +176,8 @@ TEST(PoseCorrection, CenteringRemovesTheCorrectionAllFramesShare) {
                               1e-6));
 }
 
-// The tiny dataset with 5-degree, 1 % noise, made once per process.
-const std::string& perturbed_tiny_dataset() {
-  static const std::string dir = [] {
-    PosePerturbationOptions options;
-    options.data_dir = testing::tiny_image_dataset().dir;
-    options.out_dir = (testing::temp_dir("perturbed_tiny") / "data").string();
-    perturb_image_dataset_poses(options);
-    return options.out_dir;
-  }();
-  return dir;
-}
-
 TEST(PosePerturbation, PerturbsTrainingPosesOnceAndKeepsTheExactOnes) {
-  const ImageDataset exact(testing::tiny_image_dataset().dir), noisy(perturbed_tiny_dataset());
+  const ImageDataset exact(testing::tiny_image_dataset().dir), noisy(testing::perturbed_tiny_dataset());
   const auto& s = exact.character().skeleton;
   const double size = character_size(exact.character().mesh.vertices);
   for (const char* split : {"train", "novel_view"}) {
@@ -212,9 +203,9 @@ TEST(PosePerturbation, PerturbsTrainingPosesOnceAndKeepsTheExactOnes) {
   // A second perturbation into the same place, or of a perturbed copy, is refused.
   PosePerturbationOptions again;
   again.data_dir = testing::tiny_image_dataset().dir;
-  again.out_dir = perturbed_tiny_dataset();
+  again.out_dir = testing::perturbed_tiny_dataset();
   EXPECT_THROW(perturb_image_dataset_poses(again), Error);
-  again.data_dir = perturbed_tiny_dataset();
+  again.data_dir = testing::perturbed_tiny_dataset();
   again.out_dir = (testing::temp_dir("perturbed_twice") / "data").string();
   EXPECT_THROW(perturb_image_dataset_poses(again), Error);
 }
@@ -244,7 +235,7 @@ TEST(PoseRefinement, RenderedRaysCarryGradientsToTheBones) {
 
 TEST(PoseRefinement, TrainsSavesResumesAndReportsTheRefinedPoses) {
   auto options = testing::tiny_training("pose_refinement", 20, 256);
-  options.data_dir = perturbed_tiny_dataset();
+  options.data_dir = testing::perturbed_tiny_dataset();
   options.refine_poses = true;
   options.pose_learning_rate = 1e-2;
   options.checkpoint_every = 10;

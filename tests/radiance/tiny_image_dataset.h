@@ -13,6 +13,7 @@
 #include "fskin/radiance/image_dataset.h"
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/radiance/image_dataset_builder.h"
+#include "fskin/radiance/pose_perturbation.h"
 #include "fskin/radiance/radiance_field.h"
 #include "test_util.h"
 
@@ -50,6 +51,20 @@ inline const TinyImageDataset& tiny_image_dataset() {
     return d;
   }();
   return *data;
+}
+
+// The tiny dataset with its train and novel_view poses perturbed (5 degrees
+// per joint, 1 % of the size at the root; radiance/pose_perturbation.h), made
+// once per process.
+inline const std::string& perturbed_tiny_dataset() {
+  static const std::string dir = [] {
+    PosePerturbationOptions options;
+    options.data_dir = tiny_image_dataset().dir;
+    options.out_dir = (temp_dir("perturbed_tiny") / "data").string();
+    perturb_image_dataset_poses(options);
+    return options.out_dir;
+  }();
+  return dir;
 }
 
 // A small radiance field over the box [-1, 1]^3 with `options`' shading and

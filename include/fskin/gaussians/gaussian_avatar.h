@@ -30,6 +30,7 @@
 #include <string>
 
 #include "fskin/fields/voxel_skinning_field.h"
+#include "fskin/gaussians/gaussian_shading.h"
 #include "fskin/gaussians/non_rigid_offset.h"
 #include "fskin/geometry/pinhole_camera.h"
 #include "fskin/skeleton/rigged_mesh.h"
@@ -56,6 +57,10 @@ struct GaussianAvatarOptions {
   // their blended bones.
   bool non_rigid = false;
   NonRigidOffsetOptions non_rigid_network;
+  // "none": the colour is the spherical harmonics' alone; "irradiance": times
+  // a learned shade of the posed normal (gaussian_shading.h: lights that stay
+  // where they are while the body moves).
+  std::string shading = "none";
   void validate() const;
 };
 
@@ -131,6 +136,9 @@ class GaussianAvatarImpl : public torch::nn::Module {
   // The non-rigid offset's network; empty (nullptr) without options.non_rigid.
   NonRigidOffset& non_rigid_offset() { return non_rigid_; }
   const NonRigidOffset& non_rigid_offset() const { return non_rigid_; }
+  // The shading's lighting; empty (nullptr) with shading "none".
+  GaussianShading& shading() { return shading_; }
+  const GaussianShading& shading() const { return shading_; }
 
   // Replaces every per-Gaussian tensor by a gathered, extended or filtered
   // version (densification and pruning); the tensors must agree in N. The
@@ -147,6 +155,7 @@ class GaussianAvatarImpl : public torch::nn::Module {
   double initial_spacing_ = 0;
   std::shared_ptr<FrozenSkinningField> skinning_;  // the "grid" source only
   NonRigidOffset non_rigid_{nullptr};
+  GaussianShading shading_{nullptr};
   torch::Tensor means_, log_scales_, rotations_, opacity_logits_, sh_dc_, sh_rest_, surface_weights_, skinning_corrections_;
 };
 TORCH_MODULE(GaussianAvatar);

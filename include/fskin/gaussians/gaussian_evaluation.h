@@ -6,11 +6,16 @@
 #include <string>
 
 #include "fskin/radiance/avatar_evaluation.h"
+#include "fskin/radiance/pose_fitting.h"
 
 namespace fskin {
 
-// The run's avatar on `data_dir` (empty: the dataset it was trained on).
+// The run's avatar on `data_dir` (empty: the dataset it was trained on);
+// with pose refinement, the training poses' images with their refined bones;
+// with fitting.steps > 0, every image's pose fitted to it first
+// (gaussian_pose_fitting.h: test-time optimisation).
 AvatarEvaluation evaluate_gaussian_avatar_run(const std::string& run_dir, const std::string& data_dir,
-                                              const std::string& split, int64_t max_images = 0, bool progress = true);
+                                              const std::string& split, int64_t max_images = 0, bool progress = true,
+                                              const PoseFittingOptions& fitting = {});
 
 }  // namespace fskin

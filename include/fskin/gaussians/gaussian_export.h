@@ -16,7 +16,9 @@
 // A reader poses Gaussian i in a frame as fskin does: T = sum_j w_ij B_j,
 // mean' = T mean, covariance' = A R S S R^T A^T (A: T's 3 x 3 part). An
 // avatar's non-rigid offsets (non_rigid_offset.h) depend on the pose through
-// a network and are in neither file: players pose by skinning alone.
+// a network and are in neither file: players pose by skinning alone. Nor is
+// the learned lighting of an avatar with shading (gaussian_shading.h): the
+// colours written are the albedo, for a player's own lights to shade.
 #include <torch/types.h>
 
 #include <string>

@@ -20,6 +20,8 @@
 #include "fskin/engine/stop_signal.h"
 #include "fskin/gaussians/density_control.h"
 #include "fskin/gaussians/gaussian_avatar.h"
+#include "fskin/radiance/pose_correction.h"
+#include "fskin/radiance/refined_poses.h"
 
 namespace fskin {
 
@@ -36,6 +38,7 @@ struct GaussianTrainOptions {
   double sh_learning_rate = 2.5e-3;  // degree 0; higher degrees at a 20th
   double skinning_learning_rate = 1e-3;  // the learned skinning corrections (avatar.learned_skinning)
   double non_rigid_learning_rate = 1e-3;  // the non-rigid offset's network (avatar.non_rigid)
+  double shading_learning_rate = 2.5e-3;  // the shading's lighting (avatar.shading)
   // Cosine decay of every rate to decay_factor x over the last decay_fraction of the steps.
   double decay_fraction = 1.0, decay_factor = 0.1;
   double ssim_weight = 0.2;
@@ -46,6 +49,13 @@ struct GaussianTrainOptions {
   double skinning_weight = 0.01;
   // The non-rigid offsets' prior: weight x mean over Gaussians of |offset / size|^2.
   double non_rigid_weight = 1.0;
+  // Pose refinement (radiance/pose_correction.h, the volume avatar's
+  // --refine-poses): a correction of every training pose learned with the
+  // Gaussians, zero-mean over the poses, its squared size (radians^2, root
+  // shift in units of the size) times pose_regularizer added to the loss.
+  bool refine_poses = false;
+  double pose_learning_rate = 1e-3;
+  double pose_regularizer = 1e-3;
   // Each step renders only the box of its image's mask grown by this fraction
   // of its size (mask_box), the camera cut to it; the losses stay those of the
   // whole picture (sums over the box divided by the whole picture's pixels and
@@ -74,12 +84,23 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& options);
 // Whether a run directory holds a Gaussian avatar (its gaussian_avatar.json).
 bool is_gaussian_avatar_run(const std::string& run_dir);
 
+// The poses a Gaussian avatar run refined (radiance/refined_poses.h); throws
+// fskin::Error naming the run when it does not refine poses.
+RefinedPoses refined_gaussian_poses(const std::string& run_dir);
+
 // A trained Gaussian avatar loaded from its run (newest intact checkpoint).
 struct TrainedGaussianAvatar {
   GaussianAvatar avatar{nullptr};
   GaussianTrainOptions options;
   int64_t step = 0;
+  // With pose refinement: the training frames' corrections, and the
+  // character's skeleton and size they apply with; null without.
+  PoseCorrections corrections{nullptr};
+  Skeleton skeleton;
+  double size = 1;
   static TrainedGaussianAvatar load(const std::string& run_dir);
+  // The bones an image of any split is rendered with (PoseCorrectionsImpl::bones_for).
+  torch::Tensor bones_for(const torch::Tensor& given) const;
   // (rgb [H, W, 3] in [0, 1], alpha [H, W]) of bones [J, 4, 4] seen by camera, without gradients.
   std::pair<torch::Tensor, torch::Tensor> render(const torch::Tensor& bones, const PinholeCamera& camera,
                                                  const std::array<double, 3>& background);

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <torch/types.h>
 
+#include <cstdint>
 #include <string>
 #include <utility>
 
@@ -32,6 +33,9 @@ struct PinholeCamera {
   // The same view on a picture `factor` times finer in each direction (the
   // renderers' supersampling): every point keeps its place in the picture.
   PinholeCamera supersampled(int factor) const;
+  // The view of the pixels u0 <= u < u1, v0 <= v < v1 alone: the same rays,
+  // the picture cut to that box (its pixel (0, 0) is this one's (u0, v0)).
+  PinholeCamera cropped(int64_t u0, int64_t v0, int64_t u1, int64_t v1) const;
   // The view of the world turned by `radians` about the vertical axis (+Y,
   // docs/conventions.md) through `pivot`: a turntable's frame k is
   // orbited(2 pi k / n, subject centre).

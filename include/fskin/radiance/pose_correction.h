@@ -46,6 +46,10 @@ class PoseCorrectionsImpl : public torch::nn::Module {
   torch::Tensor corrected(const Skeleton& skeleton, double size) const;
   // The frame whose given bones equal `bones` [J, 4, 4], or -1.
   int64_t find(const torch::Tensor& bones) const;
+  // The bones an image of any split is rendered with: a frame's corrected
+  // bones, without gradients, where `given` [J, 4, 4] are that frame's given
+  // ones (the novel views of training poses), else `given` itself.
+  torch::Tensor bones_for(const torch::Tensor& given, const Skeleton& skeleton, double size) const;
   // The regulariser: squared rotation angles (radians^2) and squared root
   // translation (in units of size), summed per frame, mean over `frames`.
   torch::Tensor squared_size(const std::vector<int64_t>& frames) const;
@@ -76,6 +80,8 @@ TORCH_MODULE(PoseCorrections);
 // Frames of a split: image i sees frame frame_of[i]; images with equal bone
 // transforms share a frame, numbered in the order of first appearance.
 std::vector<int64_t> frames_of_images(const torch::Tensor& bone_transforms);
+// The bones [F, J, 4, 4] of each frame of `frame_of` (frames_of_images of bone_transforms).
+torch::Tensor frame_bone_transforms(const torch::Tensor& bone_transforms, const std::vector<int64_t>& frame_of);
 // The frame f whose bones frame_bones[f] equal `bones` [J, 4, 4] exactly, or -1.
 int64_t find_frame(const torch::Tensor& frame_bones, const torch::Tensor& bones);
 

@@ -9,6 +9,8 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
+#include <vector>
 
 #include "fskin/radiance/avatar.h"
 #include "fskin/skeleton/skeleton.h"
@@ -24,6 +26,19 @@ struct PoseFittingOptions {
   uint64_t seed = 0;
   void validate() const;
 };
+
+// The loss of an image rendered with bones [J, 4, 4] (differentiable in
+// them) at fitting step `step`.
+using PoseImageLoss = std::function<torch::Tensor(const torch::Tensor& bones, int64_t step)>;
+
+// Any avatar's fitting: Adam on a correction (pose_correction.h) of bones
+// [J, 4, 4] minimising image_loss(corrected bones, step) + options.regularizer
+// x the correction's squared size, with `frozen`'s gradients off meanwhile
+// (the avatar's parameters: they stay as they are). Returns the corrected
+// bones (`bones` with options.steps 0).
+torch::Tensor fit_pose(const torch::Tensor& bones, const Skeleton& skeleton, double size,
+                       const PoseFittingOptions& options, const std::vector<torch::Tensor>& frozen,
+                       const PoseImageLoss& image_loss);
 
 // The corrected bones [J, 4, 4] of image `image` of `split`, starting from
 // `bones`; the avatar is not changed. skeleton / size: the character's

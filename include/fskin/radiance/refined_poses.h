@@ -23,7 +23,15 @@ struct RefinedPoses {
   void save(const std::string& path) const;
 };
 
-// Throws fskin::Error naming the run when it does not refine poses.
+// The poses of a volume avatar run (avatar_training.h); throws fskin::Error
+// naming the run when it does not refine poses. (A Gaussian avatar run's:
+// gaussians/gaussian_training.h, refined_gaussian_poses.)
 RefinedPoses refined_poses(const std::string& run_dir);
+
+// The poses of a run's learned corrections, of the character's skeleton and
+// size, trained on the dataset in data_dir (whose train/poses.npz may keep the
+// exact poses); run_dir names the run in errors.
+RefinedPoses refined_poses(const PoseCorrectionsImpl& corrections, const Skeleton& skeleton, double size,
+                           const std::string& data_dir, const std::string& run_dir);
 
 }  // namespace fskin

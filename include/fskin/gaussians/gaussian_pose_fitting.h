@@ -1,0 +1,27 @@
+#pragma once
+// Test-time pose optimisation for a Gaussian avatar (the volume avatar's is
+// radiance/pose_fitting.h, whose options and core it shares): the pose of one
+// image corrected to fit that image with the Gaussians frozen. The loss is the
+// training loss without its SSIM term: mean L1 on colour plus mask_weight x
+// mean L1 between the picture's alpha and the mask, over the image's mask box
+// grown by 20 %.
+#include <torch/types.h>
+
+#include <array>
+#include <cstdint>
+
+#include "fskin/gaussians/gaussian_avatar.h"
+#include "fskin/radiance/image_dataset.h"
+#include "fskin/radiance/pose_fitting.h"
+#include "fskin/skeleton/skeleton.h"
+
+namespace fskin {
+
+// The corrected bones [J, 4, 4] of image `image` of `split`, starting from
+// `bones`; the avatar is not changed. skeleton / size: the character's.
+torch::Tensor fit_gaussian_pose_to_image(GaussianAvatarImpl& avatar, const ImageSplit& split, int64_t image,
+                                         const torch::Tensor& bones, const std::array<double, 3>& background,
+                                         const Skeleton& skeleton, double size, double mask_weight,
+                                         const PoseFittingOptions& options);
+
+}  // namespace fskin

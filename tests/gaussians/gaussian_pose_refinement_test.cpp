@@ -1,0 +1,130 @@
+// Pose refinement of Gaussian avatars (gaussian_training.h, refine_poses):
+// on the tiny dataset with noisy training poses, the learned corrections bring
+// the poses closer to the exact ones, and the run's refined bones are what
+// evaluation and rendering use for training poses; test-time fitting of one
+// image's pose with the Gaussians frozen.
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <filesystem>
+
+#include "fskin/core/error.h"
+#include "fskin/geometry/character_size.h"
+#include "fskin/gaussians/gaussian_evaluation.h"
+#include "fskin/gaussians/gaussian_pose_fitting.h"
+#include "fskin/gaussians/gaussian_training.h"
+#include "fskin/io/npz.h"
+#include "fskin/radiance/image_metrics.h"
+#include "radiance/tiny_image_dataset.h"
+
+namespace fskin {
+namespace {
+
+namespace fs = std::filesystem;
+
+GaussianTrainOptions tiny_refinement(const std::string& name, int64_t steps) {
+  GaussianTrainOptions o;
+  o.data_dir = testing::perturbed_tiny_dataset();
+  o.out_dir = (testing::temp_dir(name) / "run").string();
+  o.steps = steps;
+  o.avatar.initial_gaussians = 1500;
+  o.density.start = 20;
+  o.density.every = 20;
+  o.density.opacity_reset_every = 0;
+  o.checkpoint_every = 1000;
+  o.log_every = 10;
+  o.progress = false;
+  o.refine_poses = true;
+  return o;
+}
+
+TEST(GaussianPoseRefinement, LearnsCorrectionsThatBringThePosesCloserToTheExactOnes) {
+  auto options = tiny_refinement("gaussian_pose_refinement", 300);
+  options.pose_learning_rate = 1e-2;
+  train_gaussian_avatar(options);
+  const auto refined = refined_gaussian_poses(options.out_dir);
+  ASSERT_EQ(refined.given.size(0), 3);  // 3 training poses, 2 views each
+  ASSERT_TRUE(refined.exact.defined());
+  EXPECT_GT(refined.mean_rotation_degrees, 0);
+  EXPECT_LT(refined.refined_error.joint_distance, 0.8 * refined.given_error.joint_distance)
+      << refined.to_string();
+  // The saved file holds the three sets.
+  const auto saved = (fs::path(options.out_dir) / "refined.npz").string();
+  refined.save(saved);
+  EXPECT_TRUE(torch::equal(io::NpzReader(saved).tensor("bone_transforms"), refined.refined));
+
+  // A novel view of a training pose is rendered with its frame's refined
+  // bones, a novel pose with its own.
+  const auto trained = TrainedGaussianAvatar::load(options.out_dir);
+  ASSERT_TRUE(trained.corrections);
+  const ImageDataset data(options.data_dir);
+  const auto novel_view = data.load_split("novel_view");
+  const int64_t frame = trained.corrections->find(novel_view.bone_transforms[0]);
+  ASSERT_GE(frame, 0);
+  EXPECT_LT((trained.bones_for(novel_view.bone_transforms[0]) - refined.refined[frame]).abs().max().item<double>(), 1e-5);
+  const auto novel_pose = data.load_split("novel_pose");
+  EXPECT_TRUE(torch::equal(trained.bones_for(novel_pose.bone_transforms[0]), novel_pose.bone_transforms[0]));
+  // ... and the evaluation scores those renders: better than the given bones'.
+  const auto scores = evaluate_gaussian_avatar_run(options.out_dir, "", "novel_view", 0, false);
+  ASSERT_EQ(scores.frames.size(), 2u);
+  auto given = TrainedGaussianAvatar::load(options.out_dir);
+  given.corrections = nullptr;  // the same Gaussians on the given (noisy) bones
+  double given_psnr = 0;
+  for (int64_t i = 0; i < novel_view.size(); ++i) {
+    const auto image = given.render(novel_view.bone_transforms[i], novel_view.cameras[i], data.background()).first;
+    given_psnr += psnr(image, novel_view.images[i].to(torch::kFloat32) / 255) / static_cast<double>(novel_view.size());
+  }
+  EXPECT_GT(scores.mean_psnr, given_psnr) << "given bones " << given_psnr;
+}
+
+TEST(GaussianPoseFitting, FitsANoisyPoseToItsImageWithTheGaussiansFrozen) {
+  auto options = tiny_refinement("gaussian_pose_fitting", 200);
+  options.data_dir = testing::tiny_image_dataset().dir;  // exact poses
+  options.refine_poses = false;
+  train_gaussian_avatar(options);
+  auto trained = TrainedGaussianAvatar::load(options.out_dir);
+  const ImageDataset data(options.data_dir);
+  const auto split = data.load_split("train");
+  const auto& skeleton = data.character().skeleton;
+  const double size = character_size(data.character().mesh.vertices);
+  const auto exact = split.bone_transforms[0];
+  torch::manual_seed(3);
+  const auto axes = torch::randn({skeleton.num_joints(), 3});
+  const auto noise = axes / axes.norm(2, 1, true) * static_cast<float>(5 * M_PI / 180);
+  const auto noisy = corrected_bone_transforms(exact, noise, torch::tensor({0.01f, 0.0f, 0.0f}), skeleton, size);
+  const auto means = trained.avatar->means().clone();
+
+  PoseFittingOptions fitting;
+  EXPECT_TRUE(torch::equal(fit_gaussian_pose_to_image(*trained.avatar, split, 0, noisy, data.background(), skeleton,
+                                                      size, 0.5, fitting),
+                           noisy));  // 0 steps: as given
+  fitting.steps = 100;
+  const auto fitted =
+      fit_gaussian_pose_to_image(*trained.avatar, split, 0, noisy, data.background(), skeleton, size, 0.5, fitting);
+  const auto before = pose_error(noisy.unsqueeze(0), exact.unsqueeze(0), skeleton, size);
+  const auto after = pose_error(fitted.unsqueeze(0), exact.unsqueeze(0), skeleton, size);
+  EXPECT_LT(after.joint_distance, 0.8 * before.joint_distance) << before.joint_distance << " -> " << after.joint_distance;
+  const auto psnr_with = [&](const torch::Tensor& bones) {
+    return psnr(trained.render(bones, split.cameras[0], data.background()).first,
+                split.images[0].to(torch::kFloat32) / 255);
+  };
+  EXPECT_GT(psnr_with(fitted), psnr_with(noisy) + 0.5) << psnr_with(noisy) << " -> " << psnr_with(fitted) << " (exact "
+                                                         << psnr_with(exact) << ")";
+  // The Gaussians are unchanged and trainable again.
+  EXPECT_TRUE(torch::equal(trained.avatar->means(), means));
+  EXPECT_TRUE(trained.avatar->means().requires_grad());
+  // Through the evaluation, recorded in its JSON.
+  const auto scores = evaluate_gaussian_avatar_run(options.out_dir, "", "novel_pose", 1, false, {2});
+  EXPECT_EQ(scores.pose_fitting_steps, 2);
+}
+
+TEST(GaussianPoseRefinement, ARunWithoutRefinementHasNoRefinedPoses) {
+  auto options = tiny_refinement("gaussian_pose_refinement_off", 1);
+  options.refine_poses = false;
+  train_gaussian_avatar(options);
+  testing::expect_error([&] { refined_gaussian_poses(options.out_dir); }, {"does not refine poses"});
+  EXPECT_FALSE(TrainedGaussianAvatar::load(options.out_dir).corrections);
+}
+
+}  // namespace
+}  // namespace fskin
