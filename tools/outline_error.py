@@ -1,8 +1,10 @@
 #!/usr/bin/python3
 """How an avatar's outline differs from the truth on a split of its dataset:
 per image, the rendered opacity against the dataset's mask (areas in pixels,
-the opacity the mask lacks and the mask the opacity lacks), and the share of
-the squared colour error within 2 pixels of the mask's outline.
+the opacity the mask lacks and the mask the opacity lacks), the share of
+the squared colour error within 2 pixels of the mask's outline, and the PSNR
+there and inside the mask farther than 2 pixels from it (the interior:
+colour and shading, apart from where the outline lies).
 
     PYTHONPATH=build/python /usr/bin/python3 tools/outline_error.py RUN [--split novel_pose] [--data DIR]
 
@@ -35,7 +37,8 @@ def main():
     poses = np.load(split / "poses.npz")
     cameras = np.load(split / "cameras.npz")
     width, height = int(cameras["width"]), int(cameras["height"])
-    band_error = total_error = 0.0
+    band_error = total_error = interior_error = 0.0
+    band_pixels = interior_pixels = 0
     print("image  rendered area  mask area  ratio  opacity outside the mask  mask without opacity")
     for i in range(len(poses["bone_transforms"])):
         truth = fskin.read_png(str(split / "images" / f"image_{i:04d}.png")).float() / 255
@@ -48,11 +51,17 @@ def main():
         shrunk = -torch.nn.functional.max_pool2d(-inside, 5, 1, 2)[0, 0] > 0
         error = (rgb - truth).square().sum(-1)
         band_error += float(error[grown & ~shrunk].sum())
+        band_pixels += int((grown & ~shrunk).sum())
+        interior_error += float(error[shrunk].sum())
+        interior_pixels += int(shrunk.sum())
         total_error += float(error.sum())
         rendered, truth_area = float(alpha.sum()), float(mask.sum())
         print(f"{i:5d}  {rendered:13.0f}  {truth_area:9.0f}  {rendered / truth_area:5.3f}  "
               f"{float((alpha - mask).clamp(min=0).sum()):24.0f}  {float((mask - alpha).clamp(min=0).sum()):20.0f}")
     print(f"squared colour error within 2 pixels of the outline: {100 * band_error / total_error:.1f} %")
+    psnr = lambda error, pixels: -10 * np.log10(max(error / max(3 * pixels, 1), 1e-12))
+    print(f"PSNR within 2 pixels of the outline: {psnr(band_error, band_pixels):.2f} dB; "
+          f"inside, farther from it: {psnr(interior_error, interior_pixels):.2f} dB")
 
 
 if __name__ == "__main__":

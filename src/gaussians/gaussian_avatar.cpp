@@ -147,7 +147,10 @@ GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const Pinh
   const auto directions = view / view.norm(2, 1, true).clamp_min(1e-12);
   auto colors = spherical_harmonics_color(sh(), directions);
   if (shading_) {
-    colors = colors * shading_->forward(posed_gaussian_normals(rotations_, posed.linear));
+    // The normals without gradients: through them each Gaussian could tilt
+    // to set its own shade, which fits the training views and draws the
+    // tilted footprints in others (gaussian_shading.h).
+    colors = colors * shading_->forward(posed_gaussian_normals(rotations_.detach(), posed.linear.detach()));
   }
   const auto bg = torch::tensor({background[0], background[1], background[2]}, means_.options());
   const auto opacities =

@@ -40,7 +40,6 @@ GaussianTrainOptions tiny_refinement(const std::string& name, int64_t steps) {
 
 TEST(GaussianPoseRefinement, LearnsCorrectionsThatBringThePosesCloserToTheExactOnes) {
   auto options = tiny_refinement("gaussian_pose_refinement", 300);
-  options.pose_learning_rate = 1e-2;
   train_gaussian_avatar(options);
   const auto refined = refined_gaussian_poses(options.out_dir);
   ASSERT_EQ(refined.given.size(0), 3);  // 3 training poses, 2 views each

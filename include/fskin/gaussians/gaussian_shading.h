@@ -18,6 +18,11 @@
 // blended transform A as a plane's normal is (A^-T n, the cross product of the
 // posed x and y axes), and keeps its side: a normal turned towards each
 // camera would flip where a surface is seen edge-on, and its shade with it.
+// The avatar shades with the normals detached: the shade learns the
+// lighting and the albedo, never the Gaussians' orientation or the pose
+// (through its normal each Gaussian could tilt to set its own shade, fitting
+// the training views and drawing tilted footprints in the others: measured,
+// docs/benchmarks.md).
 #include <torch/torch.h>
 
 #include <string>
