@@ -15,6 +15,7 @@
 #include "fskin/gaussians/gaussian_training.h"
 #include "fskin/io/npz.h"
 #include "fskin/radiance/image_metrics.h"
+#include "gaussians/tiny_gaussian_training.h"
 #include "radiance/tiny_image_dataset.h"
 
 namespace fskin {
@@ -22,18 +23,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The tiny dataset with noisy training poses, refined.
 GaussianTrainOptions tiny_refinement(const std::string& name, int64_t steps) {
-  GaussianTrainOptions o;
+  auto o = testing::tiny_gaussian_training(name, steps);
   o.data_dir = testing::perturbed_tiny_dataset();
-  o.out_dir = (testing::temp_dir(name) / "run").string();
-  o.steps = steps;
-  o.avatar.initial_gaussians = 1500;
-  o.density.start = 20;
-  o.density.every = 20;
-  o.density.opacity_reset_every = 0;
-  o.checkpoint_every = 1000;
-  o.log_every = 10;
-  o.progress = false;
   o.refine_poses = true;
   return o;
 }
@@ -87,10 +80,7 @@ TEST(GaussianPoseFitting, FitsANoisyPoseToItsImageWithTheGaussiansFrozen) {
   const auto& skeleton = data.character().skeleton;
   const double size = character_size(data.character().mesh.vertices);
   const auto exact = split.bone_transforms[0];
-  torch::manual_seed(3);
-  const auto axes = torch::randn({skeleton.num_joints(), 3});
-  const auto noise = axes / axes.norm(2, 1, true) * static_cast<float>(5 * M_PI / 180);
-  const auto noisy = corrected_bone_transforms(exact, noise, torch::tensor({0.01f, 0.0f, 0.0f}), skeleton, size);
+  const auto noisy = testing::noisy_bones(exact, skeleton, size);
   const auto means = trained.avatar->means().clone();
 
   PoseFittingOptions fitting;

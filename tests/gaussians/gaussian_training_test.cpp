@@ -14,26 +14,13 @@
 #include "fskin/gaussians/gaussian_config.h"
 #include "fskin/gaussians/gaussian_evaluation.h"
 #include "fskin/radiance/image_metrics.h"
+#include "gaussians/tiny_gaussian_training.h"
 #include "radiance/tiny_image_dataset.h"
 
 namespace fskin {
 namespace {
 
-GaussianTrainOptions tiny_gaussian_training(const std::string& name, int64_t steps) {
-  GaussianTrainOptions o;
-  o.data_dir = testing::tiny_image_dataset().dir;
-  o.out_dir = (testing::temp_dir(name) / "run").string();
-  o.steps = steps;
-  o.avatar.initial_gaussians = 1500;
-  o.avatar.skinning_grid_resolution = 32;
-  o.density.start = 20;
-  o.density.every = 20;
-  o.density.opacity_reset_every = 0;
-  o.checkpoint_every = 1000;
-  o.log_every = 10;
-  o.progress = false;
-  return o;
-}
+using testing::tiny_gaussian_training;
 
 TEST(GaussianDensityControl, ClonesSplitsAndPrunesWithTheirAdamMoments) {
   const ImageDataset dataset(testing::tiny_image_dataset().dir);

@@ -282,12 +282,8 @@ TEST(PoseFitting, FitsANoisyPoseToItsImageWithTheAvatarFrozen) {
   const auto split = data.load_split("train");
   const auto& skeleton = data.character().skeleton;
   const double size = character_size(data.character().mesh.vertices);
-  const int64_t J = skeleton.num_joints();
   const auto exact = split.bone_transforms[0];
-  torch::manual_seed(3);
-  const auto axes = torch::randn({J, 3});
-  const auto noise = axes / axes.norm(2, 1, true) * static_cast<float>(5 * M_PI / 180);
-  const auto noisy = corrected_bone_transforms(exact, noise, torch::tensor({0.01f, 0.0f, 0.0f}), skeleton, size);
+  const auto noisy = testing::noisy_bones(exact, skeleton, size);
   const auto table = trained.avatar->field()->table().clone();
 
   PoseFittingOptions fitting;

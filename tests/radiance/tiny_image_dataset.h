@@ -5,6 +5,7 @@
 // training options on it.
 #include <torch/torch.h>
 
+#include <cmath>
 #include <filesystem>
 #include <string>
 
@@ -13,6 +14,7 @@
 #include "fskin/radiance/image_dataset.h"
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/radiance/image_dataset_builder.h"
+#include "fskin/radiance/pose_correction.h"
 #include "fskin/radiance/pose_perturbation.h"
 #include "fskin/radiance/radiance_field.h"
 #include "test_util.h"
@@ -65,6 +67,16 @@ inline const std::string& perturbed_tiny_dataset() {
     return options.out_dir;
   }();
   return dir;
+}
+
+// Bones [J, 4, 4] with a pose's noise added (pose_correction.h): at every
+// joint 5 degrees about a random axis (seed 3), the root shifted by 1 % of
+// the size along x.
+inline torch::Tensor noisy_bones(const torch::Tensor& bones, const Skeleton& skeleton, double size) {
+  torch::manual_seed(3);
+  const auto axes = torch::randn({skeleton.num_joints(), 3});
+  const auto noise = axes / axes.norm(2, 1, true) * static_cast<float>(5 * M_PI / 180);
+  return corrected_bone_transforms(bones, noise, torch::tensor({0.01f, 0.0f, 0.0f}), skeleton, size);
 }
 
 // A small radiance field over the box [-1, 1]^3 with `options`' shading and
