@@ -25,8 +25,6 @@
 // docs/benchmarks.md).
 #include <torch/torch.h>
 
-#include <string>
-
 namespace fskin {
 
 // Posed normals [N, 3] (unit) of Gaussians with rotations [N, 4]
