@@ -198,4 +198,11 @@ std::optional<std::string> load_latest_checkpoint(const std::string& dir, const 
   return std::nullopt;
 }
 
+torch::serialize::InputArchive checkpoint_part(torch::serialize::InputArchive& archive, const char* key,
+                                               const std::string& run_dir, const char* what) {
+  torch::serialize::InputArchive part;
+  FSKIN_CHECK(archive.try_read(key, part), "{}: the run {} but its checkpoint holds no '{}'", run_dir, what, key);
+  return part;
+}
+
 }  // namespace fskin

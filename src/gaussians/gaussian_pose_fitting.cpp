@@ -10,6 +10,8 @@ torch::Tensor fit_gaussian_pose_to_image(GaussianAvatarImpl& avatar, const Image
                                          const torch::Tensor& bones, const std::array<double, 3>& background,
                                          const Skeleton& skeleton, double size, double mask_weight,
                                          const PoseFittingOptions& options) {
+  options.validate();
+  if (options.steps == 0) return bones.detach().to(torch::kCPU, torch::kFloat32).contiguous();  // no crops to make
   const auto box = mask_box(split.masks[image], 0.2);  // (u0, v0, u1, v1)
   const auto camera = split.cameras[static_cast<size_t>(image)].cropped(box[0], box[1], box[2], box[3]);
   const auto crop = [&](const torch::Tensor& t) { return t.slice(0, box[1], box[3]).slice(1, box[0], box[2]); };

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fskin/core/error.h"
+#include "fskin/engine/checkpoint.h"
 #include "fskin/engine/run_directory.h"
 #include "fskin/engine/run_lock.h"
 #include "fskin/engine/trainer.h"
@@ -328,9 +329,7 @@ TrainedGaussianAvatar TrainedGaussianAvatar::load(const std::string& run_dir) {
       run, CheckpointChoice{}, kGaussianArchiveKey, [&out, &run_dir](torch::serialize::InputArchive& archive) {
         out.avatar->load(archive);
         if (out.options.refine_poses) {
-          torch::serialize::InputArchive poses;
-          FSKIN_CHECK(archive.try_read(kPoseCorrectionsKey, poses),
-                      "{}: the run refines poses but its checkpoint holds no '{}'", run_dir, kPoseCorrectionsKey);
+          auto poses = checkpoint_part(archive, kPoseCorrectionsKey, run_dir, "refines poses");
           out.corrections = PoseCorrections(PoseCorrectionsImpl::read(poses));
         }
       });

@@ -64,15 +64,6 @@ constexpr const char* kAvatarArchiveKey = "avatar";
 constexpr const char* kPoseCorrectionsKey = "pose_corrections";  // inside the avatar's archive
 constexpr const char* kAppearanceCodesKey = "appearance_codes";  // inside the avatar's archive
 
-// The part `key` of a checkpoint's avatar archive, which the run's settings
-// say it holds (`what`: what the run does that needs it).
-torch::serialize::InputArchive checkpoint_part(torch::serialize::InputArchive& archive, const char* key,
-                                               const std::string& run_dir, const char* what) {
-  torch::serialize::InputArchive part;
-  FSKIN_CHECK(archive.try_read(key, part), "{}: the run {} but its checkpoint holds no '{}'", run_dir, what, key);
-  return part;
-}
-
 // Per image, its mask's box grown by 20 % of its size (ends exclusive).
 std::vector<std::array<int64_t, 4>> mask_boxes(const ImageSplit& split) {
   std::vector<std::array<int64_t, 4>> boxes;

@@ -65,4 +65,10 @@ void load_checkpoint(const std::string& path, const ArchiveReader& read);
 // fskin::Error naming the file and the damage.
 std::string read_checkpoint_payload(const std::string& path);
 
+// The part `key` of a model's archive in a checkpoint, which the run's
+// settings say it holds (`what`: what the run does that needs it); throws
+// fskin::Error naming the run and the part when it is missing.
+torch::serialize::InputArchive checkpoint_part(torch::serialize::InputArchive& archive, const char* key,
+                                               const std::string& run_dir, const char* what);
+
 }  // namespace fskin
