@@ -58,6 +58,7 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/density/max_gaussians", density.max_gaussians),
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/enabled", refine_poses),
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/learning_rate", pose_learning_rate),
+    FSKIN_GAUSSIAN_FIELD("/pose_refinement/translation_learning_rate", pose_translation_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/regularizer", pose_regularizer),
     FSKIN_GAUSSIAN_FIELD("/losses/ssim/weight", ssim_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/mask/weight", mask_weight),

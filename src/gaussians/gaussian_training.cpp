@@ -41,6 +41,7 @@ void GaussianTrainOptions::validate() const {
   FSKIN_CHECK(steps >= 0, "gaussian avatar train: steps must be >= 0, got {}", steps);
   for (const double rate : {means_learning_rate, scales_learning_rate, rotations_learning_rate, opacity_learning_rate,
                             sh_learning_rate, skinning_learning_rate, non_rigid_learning_rate, pose_learning_rate,
+                            pose_translation_learning_rate,
                             shading_learning_rate}) {
     FSKIN_CHECK(std::isfinite(rate) && rate > 0 && rate <= 1,
                 "gaussian avatar train: learning rates must be in (0, 1], got {}", rate);
@@ -112,7 +113,10 @@ class GaussianTrainable : public Trainable {
       groups.push_back({avatar_->non_rigid_offset()->parameters(), options_.non_rigid_learning_rate});
     }
     if (avatar_->shading()) groups.push_back({avatar_->shading()->parameters(), options_.shading_learning_rate});
-    if (corrections_) groups.push_back({corrections_->parameters(), options_.pose_learning_rate});
+    if (corrections_) {
+      groups.push_back({corrections_->rotation_parameters(), options_.pose_learning_rate});
+      groups.push_back({corrections_->translation_parameters(), options_.pose_translation_learning_rate});
+    }
     return groups;
   }
   std::vector<torch::Tensor> parameters() override {

@@ -107,6 +107,19 @@ TEST(GaussianPoseFitting, FitsANoisyPoseToItsImageWithTheGaussiansFrozen) {
   EXPECT_EQ(scores.pose_fitting_steps, 2);
 }
 
+TEST(GaussianPoseRefinement, TheRootShiftStepsAtItsOwnRate) {
+  auto options = tiny_refinement("gaussian_pose_refinement_rates", 20);
+  options.pose_translation_learning_rate = 1e-6;  // against the rotations' 1e-2
+  train_gaussian_avatar(options);
+  const auto trained = TrainedGaussianAvatar::load(options.out_dir);
+  ASSERT_TRUE(trained.corrections);
+  EXPECT_DOUBLE_EQ(trained.options.pose_translation_learning_rate, 1e-6);  // kept in the run's document
+  // Adam moves a coordinate by about its rate per step: each of 3 frames
+  // steps about 7 times in 20 steps.
+  EXPECT_LT(trained.corrections->translations().abs().max().item<double>(), 2e-5);
+  EXPECT_GT(trained.corrections->rotations().abs().max().item<double>(), 1e-2);
+}
+
 TEST(GaussianPoseRefinement, ARunWithoutRefinementHasNoRefinedPoses) {
   auto options = tiny_refinement("gaussian_pose_refinement_off", 1);
   options.refine_poses = false;

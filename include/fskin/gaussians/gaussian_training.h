@@ -53,13 +53,18 @@ struct GaussianTrainOptions {
   // --refine-poses): a correction of every training pose learned with the
   // Gaussians, zero-mean over the poses, its squared size (radians^2, root
   // shift in units of the size) times pose_regularizer added to the loss.
-  // The learning rate is ten times the volume avatar's: a step here renders
-  // one image where the volume avatar's draws rays from four, so each pose's
-  // correction steps a quarter as often (40 poses: about 75 times in 3,000
-  // steps); the best of 1e-3, 3e-3, 1e-2 and 3e-2 (which diverged) measured
-  // on the demo's noisy poses (docs/benchmarks.md).
+  // The rotations' learning rate is ten times the volume avatar's: a step
+  // here renders one image where the volume avatar's draws rays from four, so
+  // each pose's correction steps a quarter as often (40 poses: about 75 times
+  // in 3,000 steps); the best of 1e-3, 3e-3, 1e-2 and 3e-2 (which diverged)
+  // measured on the demo's noisy poses (docs/benchmarks.md). The root shift
+  // keeps the volume avatar's 1e-3: Adam's first steps of a pose move each
+  // coordinate by about the rate, and at 1e-2 that shifted the whole body by
+  // 1 % of its size, as much as the noise being corrected (measured: 1e-3
+  // scores about 1 dB higher, on noisy and on exact poses alike).
   bool refine_poses = false;
   double pose_learning_rate = 1e-2;
+  double pose_translation_learning_rate = 1e-3;
   double pose_regularizer = 1e-3;
   // Each step renders only the box of its image's mask grown by this fraction
   // of its size (mask_box), the camera cut to it; the losses stay those of the

@@ -68,6 +68,10 @@ class PoseCorrectionsImpl : public torch::nn::Module {
   // common bias is not (it is the rig's, and new poses carry it too).
   void center();
   const torch::Tensor& given_bones() const { return given_; }  // [F, J, 4, 4]
+  // The learned tensors by kind (parameters() holds both), for optimisers
+  // that step them at different rates: per frame [J, 3] and [3].
+  const std::vector<torch::Tensor>& rotation_parameters() const { return rotations_; }
+  const std::vector<torch::Tensor>& translation_parameters() const { return translations_; }
   torch::Tensor rotations() const;                              // [F, J, 3], detached
   torch::Tensor translations() const;                           // [F, 3], detached
 
