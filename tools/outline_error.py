@@ -50,8 +50,9 @@ def main():
         grown = torch.nn.functional.max_pool2d(inside, 5, 1, 2)[0, 0] > 0
         shrunk = -torch.nn.functional.max_pool2d(-inside, 5, 1, 2)[0, 0] > 0
         error = (rgb - truth).square().sum(-1)
-        band_error += float(error[grown & ~shrunk].sum())
-        band_pixels += int((grown & ~shrunk).sum())
+        band = grown & ~shrunk
+        band_error += float(error[band].sum())
+        band_pixels += int(band.sum())
         interior_error += float(error[shrunk].sum())
         interior_pixels += int(shrunk.sum())
         total_error += float(error.sum())
