@@ -383,7 +383,9 @@ def train_avatar(data: str, out: str, steps: int = ..., rays_per_step: int = ...
 def train_gaussian_avatar(data: str, out: str, steps: int = ..., resume: bool = ..., seed: int = ..., progress: bool = ..., settings: List[str] = [], config: str = ...) -> dict:
     """`fskin avatar train --representation gaussians`: articulated 3-D Gaussians from an image dataset;
     every option of their config (gaussians/gaussian_config.h) through settings ['density.every=50',
-    ...] and a config file; evaluate_avatar, render_avatar and export_avatar take the run"""
+    ...] and a config file; evaluate_avatar, render_avatar and export_avatar take the run. Refining
+    poses, a first pass learns them (pose_pass_first_step -> pose_pass_last_step in the returned
+    dict)"""
     ...
 
 def training_poses(body: BodyModel, sequences: int = ..., frames: int = ..., seed: int = ...) -> torch.Tensor:

@@ -229,13 +229,16 @@ void bind_avatars(py::module_& m) {
         }
         return py::dict(py::arg("first_step") = summary.first_step, py::arg("last_step") = summary.last_step,
                         py::arg("seconds") = summary.seconds, py::arg("loss") = summary.final_loss,
-                        py::arg("psnr") = summary.final_psnr, py::arg("gaussians") = summary.gaussians);
+                        py::arg("psnr") = summary.final_psnr, py::arg("gaussians") = summary.gaussians,
+                        py::arg("pose_pass_first_step") = summary.pose_pass_first_step,
+                        py::arg("pose_pass_last_step") = summary.pose_pass_last_step);
       },
       py::arg("data"), py::arg("out"), py::arg("steps") = 3000, py::arg("resume") = false, py::arg("seed") = 0,
       py::arg("progress") = false, py::arg("settings") = std::vector<std::string>{}, py::arg("config") = "",
       "`fskin avatar train --representation gaussians`: articulated 3-D Gaussians from an image dataset; every "
       "option of their config (gaussians/gaussian_config.h) through settings ['density.every=50', ...] and a "
-      "config file; evaluate_avatar, render_avatar and export_avatar take the run");
+      "config file; evaluate_avatar, render_avatar and export_avatar take the run. Refining poses, a first pass "
+      "learns them (pose_pass_first_step -> pose_pass_last_step in the returned dict)");
   m.def(
       "evaluate_avatar",
       [](const std::string& run, const std::string& split, const std::string& data, int64_t max_images,

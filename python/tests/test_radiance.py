@@ -195,9 +195,11 @@ def test_gaussian_avatars_train_evaluate_render_and_export(tmp_path):
     # Noisy poses refined while training, and shading by a learned lighting of the posed normal.
     fskin.perturb_poses(str(tmp_path / "images"), str(tmp_path / "noisy"), degrees=5.0)
     refined_run = str(tmp_path / "refined")
-    fskin.train_gaussian_avatar(str(tmp_path / "noisy"), refined_run, steps=5,
-                                settings=["model.gaussians.initial=300", "pose_refinement.enabled=true",
-                                          "pose_refinement.learning_rate=0.01", "model.shading=irradiance"])
+    summary = fskin.train_gaussian_avatar(
+        str(tmp_path / "noisy"), refined_run, steps=5,
+        settings=["model.gaussians.initial=300", "pose_refinement.enabled=true", "pose_refinement.learning_rate=0.01",
+                  "pose_refinement.first_pass_steps=5", "model.shading=irradiance"])
+    assert (summary["pose_pass_first_step"], summary["pose_pass_last_step"]) == (0, 5)  # then the run's 5 steps
     refined = fskin.refined_poses(refined_run)
     assert refined["given"].shape == refined["refined"].shape == (2, body.num_joints, 4, 4)
     assert not torch.equal(refined["given"], refined["refined"])

@@ -60,6 +60,8 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/learning_rate", pose_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/translation_learning_rate", pose_translation_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/regularizer", pose_regularizer),
+    FSKIN_GAUSSIAN_FIELD("/pose_refinement/first_pass_steps", pose_first_pass_steps),
+    FSKIN_GAUSSIAN_FIELD("/pose_refinement/second_pass_learning_rate", pose_second_pass_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/losses/ssim/weight", ssim_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/mask/weight", mask_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/skinning/weight", skinning_weight),

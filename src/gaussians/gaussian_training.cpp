@@ -33,6 +33,24 @@ constexpr const char* kPoseCorrectionsKey = "pose_corrections";  // inside the a
 
 std::string run_file(const std::string& run_dir) { return RunDirectory(run_dir).gaussian_avatar_config_file(); }
 
+TrainerSettings trainer_settings(const GaussianTrainOptions& options, const std::string& label) {
+  TrainerSettings settings;
+  settings.steps = options.steps;
+  settings.seed = options.seed;
+  settings.schedule.decay_fraction = options.decay_fraction;
+  settings.schedule.decay_factor = options.decay_factor;
+  settings.learning_rate = options.means_learning_rate;
+  settings.adam_eps = 1e-15;  // 3DGS's
+  settings.log_every = options.log_every;
+  settings.checkpoint_every = options.checkpoint_every;
+  settings.resume = options.resume;
+  settings.progress = options.progress;
+  settings.progress_label = label;
+  settings.learning_rate_hint = "lower the learning rates (--set optimizer.learning_rates.means=...)";
+  settings.stop = options.stop;
+  return settings;
+}
+
 }  // namespace
 
 void GaussianTrainOptions::validate() const {
@@ -41,8 +59,7 @@ void GaussianTrainOptions::validate() const {
   FSKIN_CHECK(steps >= 0, "gaussian avatar train: steps must be >= 0, got {}", steps);
   for (const double rate : {means_learning_rate, scales_learning_rate, rotations_learning_rate, opacity_learning_rate,
                             sh_learning_rate, skinning_learning_rate, non_rigid_learning_rate, pose_learning_rate,
-                            pose_translation_learning_rate,
-                            shading_learning_rate}) {
+                            pose_translation_learning_rate, pose_second_pass_learning_rate, shading_learning_rate}) {
     FSKIN_CHECK(std::isfinite(rate) && rate > 0 && rate <= 1,
                 "gaussian avatar train: learning rates must be in (0, 1], got {}", rate);
   }
@@ -54,6 +71,8 @@ void GaussianTrainOptions::validate() const {
               "gaussian avatar train: losses.non_rigid.weight must be >= 0, got {}", non_rigid_weight);
   FSKIN_CHECK(std::isfinite(pose_regularizer) && pose_regularizer >= 0,
               "gaussian avatar train: pose_refinement.regularizer must be >= 0, got {}", pose_regularizer);
+  FSKIN_CHECK(pose_first_pass_steps >= 0, "gaussian avatar train: pose_refinement.first_pass_steps must be >= 0, got {}",
+              pose_first_pass_steps);
   FSKIN_CHECK(std::isfinite(skinning_weight) && skinning_weight >= 0,
               "gaussian avatar train: the skinning prior's weight must be >= 0");
   FSKIN_CHECK(std::isfinite(crop_margin) && crop_margin <= 10,
@@ -233,6 +252,9 @@ class GaussianTrainable : public Trainable {
     if (d.opacity_reset_every > 0 && done % d.opacity_reset_every == 0) reset_opacities(*avatar_, adam, 0.01);
   }
 
+  // The learned pose corrections (null without refine_poses).
+  PoseCorrections corrections() const { return corrections_; }
+
   std::string progress_text(const nlohmann::json& values) const override {
     return fmt::format("loss {:.4f} psnr {:.1f} {:.0f} gaussians", values.at("loss").get<double>(),
                        values.at("psnr").get<double>(), values.at("gaussians").get<double>());
@@ -283,29 +305,47 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
   write_file_atomically(config_file, gaussian_run_document(options).dump(2) + "\n");
   save_canonical_character(data.character(), run.character_file());
 
+  GaussianTrainSummary summary;
+  const bool two_passes = options.refine_poses && options.pose_first_pass_steps > 0;
+  // The second pass's poses start from the first pass's: that pass runs
+  // first, to its end, unless the second has begun (a resumed run).
+  PoseCorrections first_pass_poses{nullptr};
+  const RunDirectory pose_pass(run.pose_pass_directory());
+  if (two_passes && !(options.resume && !run.checkpoints().empty())) {
+    if (!options.resume && fs::exists(pose_pass.path())) fs::remove_all(pose_pass.path());  // a fresh run's
+    create_output_directory(pose_pass.path());
+    GaussianTrainOptions first = options;
+    first.steps = options.pose_first_pass_steps;
+    torch::manual_seed(options.seed);
+    GaussianAvatar first_avatar(data.character(), options.avatar, options.seed);
+    GaussianTrainable first_trainable(first_avatar, first, data, split);
+    const auto result =
+        Trainer(pose_pass, trainer_settings(first, "gaussian avatar train, pass 1 of 2 (poses)")).run(first_trainable);
+    summary.pose_pass_first_step = result.first_step;
+    summary.pose_pass_last_step = result.last_step;
+    summary.seconds += result.seconds;
+    if (result.stopped) {
+      summary.stopped = true;
+      return summary;
+    }
+    first_pass_poses = first_trainable.corrections();
+  }
+
+  GaussianTrainOptions second = options;
+  if (two_passes) second.pose_learning_rate = options.pose_second_pass_learning_rate;
+  second.resume = options.resume && !run.checkpoints().empty();  // none yet: the pass starts
   torch::manual_seed(options.seed);
   GaussianAvatar avatar(data.character(), options.avatar, options.seed);
-  GaussianTrainable trainable(avatar, options, data, split);
-  TrainerSettings settings;
-  settings.steps = options.steps;
-  settings.seed = options.seed;
-  settings.schedule.decay_fraction = options.decay_fraction;
-  settings.schedule.decay_factor = options.decay_factor;
-  settings.learning_rate = options.means_learning_rate;
-  settings.adam_eps = 1e-15;  // 3DGS's
-  settings.log_every = options.log_every;
-  settings.checkpoint_every = options.checkpoint_every;
-  settings.resume = options.resume;
-  settings.progress = options.progress;
-  settings.progress_label = "gaussian avatar train";
-  settings.learning_rate_hint = "lower the learning rates (--set optimizer.learning_rates.means=...)";
-  settings.stop = options.stop;
-  const auto result = Trainer(run, settings).run(trainable);
+  GaussianTrainable trainable(avatar, second, data, split);
+  // A resumed second pass reads its poses from its checkpoint instead.
+  if (first_pass_poses) trainable.corrections()->assign(*first_pass_poses);
+  const auto result =
+      Trainer(run, trainer_settings(second, two_passes ? "gaussian avatar train, pass 2 of 2" : "gaussian avatar train"))
+          .run(trainable);
 
-  GaussianTrainSummary summary;
   summary.first_step = result.first_step;
   summary.last_step = result.last_step;
-  summary.seconds = result.seconds;
+  summary.seconds += result.seconds;
   summary.stopped = result.stopped;
   summary.gaussians = avatar->size();
   if (!result.last_logged.is_null()) {
@@ -323,6 +363,11 @@ TrainedGaussianAvatar TrainedGaussianAvatar::load(const std::string& run_dir) {
               run_dir, config_file);
   TrainedGaussianAvatar out;
   out.options = read_gaussian_run_config(config_file, run_dir);
+  FSKIN_CHECK(!(out.options.refine_poses && out.options.pose_first_pass_steps > 0 && run.checkpoints().empty() &&
+                fs::exists(run.pose_pass_directory())),
+              "{}: the run stopped in its first pass of pose refinement ({}), before the avatar itself; "
+              "`fskin avatar train --data {} --out {} --representation gaussians --resume` finishes it",
+              run_dir, run.pose_pass_directory(), out.options.data_dir, run_dir);
   const auto character = load_canonical_character(run.character_file());
   out.avatar = GaussianAvatar(character, out.options.avatar, out.options.seed);
   if (out.options.refine_poses) {

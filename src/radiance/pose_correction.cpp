@@ -99,6 +99,17 @@ void PoseCorrectionsImpl::center() {
   for (auto& p : translations_) p.sub_(mean_translation);
 }
 
+void PoseCorrectionsImpl::assign(const PoseCorrectionsImpl& other) {
+  FSKIN_CHECK(other.given_.sizes() == given_.sizes() && torch::equal(other.given_, given_),
+              "pose corrections: the corrections assigned correct other bones ({} frames against {})", other.frames(),
+              frames());
+  torch::NoGradGuard no_grad;
+  for (size_t f = 0; f < rotations_.size(); ++f) {
+    rotations_[f].copy_(other.rotations_[f]);
+    translations_[f].copy_(other.translations_[f]);
+  }
+}
+
 torch::Tensor PoseCorrectionsImpl::rotations() const {
   const int64_t J = given_.size(1);
   return rotations_.empty() ? torch::zeros({0, J, 3}) : torch::stack(rotations_).detach();

@@ -181,10 +181,12 @@ TEST_F(AvatarCommands, GaussianAvatarsTrainEvaluateAndRender) {
   const std::string run = path("gaussians");
   ASSERT_EQ(run_cli("avatar train --data " + path("images") + " --out " + run +
                     " --representation gaussians --steps 30 --quiet --set model.gaussians.initial=800 --set "
-                    "density.start=10 --set density.every=10 --refine-poses --shading irradiance"),
+                    "density.start=10 --set density.every=10 --refine-poses --set pose_refinement.first_pass_steps=10 "
+                    "--shading irradiance"),
             0)
       << log();
   EXPECT_NE(log().find("Gaussians; last loss"), std::string::npos) << log();
+  EXPECT_NE(log().find("pose pass (1 of 2): steps 0 -> 10"), std::string::npos) << log();
   const auto document = nlohmann::json::parse(read_file(run + "/gaussian_avatar.json"));
   EXPECT_EQ(document.at("model").at("type"), "gaussian-avatar");
   EXPECT_EQ(document.at("density").at("every"), 10);

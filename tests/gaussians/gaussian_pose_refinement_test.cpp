@@ -1,14 +1,22 @@
 // Pose refinement of Gaussian avatars (gaussian_training.h, refine_poses):
 // on the tiny dataset with noisy training poses, the learned corrections bring
 // the poses closer to the exact ones, and the run's refined bones are what
-// evaluation and rendering use for training poses; test-time fitting of one
-// image's pose with the Gaussians frozen.
+// evaluation and rendering use for training poses; the two passes, their stop
+// and resume; test-time fitting of one image's pose with the Gaussians frozen.
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
 #include <filesystem>
+#include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "fskin/core/error.h"
+#include "fskin/engine/stop_signal.h"
+#include "fskin/engine/run_directory.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/gaussians/gaussian_evaluation.h"
 #include "fskin/gaussians/gaussian_pose_fitting.h"
@@ -23,16 +31,27 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The tiny dataset with noisy training poses, refined.
+// The tiny dataset with noisy training poses, refined in one pass.
 GaussianTrainOptions tiny_refinement(const std::string& name, int64_t steps) {
   auto o = testing::tiny_gaussian_training(name, steps);
   o.data_dir = testing::perturbed_tiny_dataset();
   o.refine_poses = true;
+  o.pose_first_pass_steps = 0;
   return o;
 }
 
+// The "gaussians" of a run log's first and last lines.
+std::pair<double, double> logged_gaussians(const std::string& log_file) {
+  std::ifstream in(log_file);
+  std::vector<nlohmann::json> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(nlohmann::json::parse(line));
+  if (lines.empty()) return {-1, -1};
+  return {lines.front().at("gaussians").get<double>(), lines.back().at("gaussians").get<double>()};
+}
+
 TEST(GaussianPoseRefinement, LearnsCorrectionsThatBringThePosesCloserToTheExactOnes) {
-  auto options = tiny_refinement("gaussian_pose_refinement", 300);
+  auto options = tiny_refinement("gaussian_pose_refinement", 150);
+  options.pose_first_pass_steps = 150;  // the default: two passes
   train_gaussian_avatar(options);
   const auto refined = refined_gaussian_poses(options.out_dir);
   ASSERT_EQ(refined.given.size(0), 3);  // 3 training poses, 2 views each
@@ -118,6 +137,57 @@ TEST(GaussianPoseRefinement, TheRootShiftStepsAtItsOwnRate) {
   // steps about 7 times in 20 steps.
   EXPECT_LT(trained.corrections->translations().abs().max().item<double>(), 2e-5);
   EXPECT_GT(trained.corrections->rotations().abs().max().item<double>(), 1e-2);
+}
+
+TEST(GaussianPoseRefinement, TheSecondPassStartsFreshGaussiansFromTheFirstPassPoses) {
+  auto options = tiny_refinement("gaussian_pose_two_passes", 20);
+  options.pose_first_pass_steps = 40;
+  options.pose_second_pass_learning_rate = 1e-9;  // the second pass keeps the first's poses
+  const RunDirectory run(options.out_dir), pose_pass(run.pose_pass_directory());
+  {
+    // Stopped (Ctrl-C) in the first pass: its checkpoint is kept, the second has not begun.
+    StopSignal stop;
+    options.stop = &stop;
+    StopSignal::request();
+    const auto stopped = train_gaussian_avatar(options);
+    EXPECT_TRUE(stopped.stopped);
+    EXPECT_EQ(stopped.pose_pass_last_step, 0);
+    EXPECT_EQ(pose_pass.checkpoints().size(), 1u);
+    EXPECT_TRUE(run.checkpoints().empty());
+    testing::expect_error([&] { TrainedGaussianAvatar::load(options.out_dir); },
+                          {options.out_dir, "stopped in its first pass of pose refinement", "--resume"});
+    options.stop = nullptr;
+  }
+  options.resume = true;
+  const auto summary = train_gaussian_avatar(options);
+  EXPECT_FALSE(summary.stopped);
+  EXPECT_EQ(summary.pose_pass_first_step, 0);
+  EXPECT_EQ(summary.pose_pass_last_step, 40);
+  EXPECT_EQ(summary.first_step, 0);
+  EXPECT_EQ(summary.last_step, 20);
+  // The first pass densified its Gaussians; the second started from the rig's mesh again.
+  const auto [first_pass_start, first_pass_end] = logged_gaussians(pose_pass.log_file());
+  const auto [second_pass_start, second_pass_end] = logged_gaussians(run.log_file());
+  EXPECT_NE(first_pass_end, first_pass_start);
+  EXPECT_EQ(second_pass_start, first_pass_start);
+  (void)second_pass_end;
+  // The poses are the first pass's (the second steps them at 1e-9): corrected towards the exact ones.
+  const auto refined = refined_gaussian_poses(options.out_dir);
+  EXPECT_LT(refined.refined_error.joint_distance, 0.9 * refined.given_error.joint_distance) << refined.to_string();
+  const auto after_two = TrainedGaussianAvatar::load(options.out_dir).corrections->rotations();
+
+  // Resumed further, only the second pass runs (its poses come from its checkpoint).
+  options.steps = 25;
+  const auto more = train_gaussian_avatar(options);
+  EXPECT_EQ(more.pose_pass_last_step, more.pose_pass_first_step);
+  EXPECT_EQ(more.first_step, 20);
+  EXPECT_EQ(more.last_step, 25);
+  EXPECT_LT((TrainedGaussianAvatar::load(options.out_dir).corrections->rotations() - after_two).abs().max().item<double>(),
+            1e-6);
+
+  auto bad = options;
+  bad.pose_first_pass_steps = -1;
+  testing::expect_error([&] { bad.validate(); }, {"pose_refinement.first_pass_steps must be >= 0"});
 }
 
 TEST(GaussianPoseRefinement, ARunWithoutRefinementHasNoRefinedPoses) {

@@ -11,6 +11,9 @@
 //   validation.jsonl       one JSON object per validation
 //   best.json              the best validation scores and their step
 //   checkpoint-<step>.fskin, checkpoint-best.fskin   (engine/checkpoint.h)
+//   pose_pass/             a Gaussian avatar's first pass of pose refinement
+//                          (gaussians/gaussian_training.h): a run directory of
+//                          its own, with its log and checkpoints
 //
 // Files are written atomically (util/atomic_file.h); a killed write leaves a
 // temporary that the next writer removes.
@@ -34,6 +37,7 @@ class RunDirectory {
   std::string best_scores_file() const;
   std::string best_checkpoint_file() const;
   std::string lock_file() const;
+  std::string pose_pass_directory() const;
   std::vector<std::string> checkpoints() const;  // numbered ones, newest first
 
   // Before the first step of a writer: removes what killed writes left, then

@@ -53,7 +53,7 @@ struct GaussianTrainOptions {
   // --refine-poses): a correction of every training pose learned with the
   // Gaussians, zero-mean over the poses, its squared size (radians^2, root
   // shift in units of the size) times pose_regularizer added to the loss.
-  // The rotations' learning rate is ten times the volume avatar's: a step
+  // The rotations' learning rate (the first pass's, below) is ten times the volume avatar's: a step
   // here renders one image where the volume avatar's draws rays from four, so
   // each pose's correction steps a quarter as often (40 poses: about 75 times
   // in 3,000 steps); the best of 1e-3, 3e-3, 1e-2 and 3e-2 (which diverged)
@@ -67,6 +67,21 @@ struct GaussianTrainOptions {
   double pose_learning_rate = 1e-2;
   double pose_translation_learning_rate = 1e-3;
   double pose_regularizer = 1e-3;
+  // Refinement in two passes. The first (pose_first_pass_steps steps, in the
+  // run's pose_pass/ directory, a run directory of its own) learns the
+  // corrections with Gaussians of its own, as above. The second, the run
+  // itself (`steps` steps), starts the Gaussians afresh from the rig's mesh
+  // and the corrections from the first pass's, stepping the rotations at
+  // pose_second_pass_learning_rate. Why: Gaussians trained while the poses
+  // are still wrong stay blurred after the poses are right (a plain run given
+  // the first pass's poses scores 1.2 / 1.4 dB above that pass, novel views /
+  // poses, 3 seeds), and sharper Gaussians then correct the poses further; at
+  // 1e-3 the corrections no longer wander on poses that need none. Measured
+  // against one pass (docs/benchmarks.md, "Noisy poses"; 3 seeds): noisy
+  // poses 2.4 / 2.0 dB higher, exact poses 1.4 / 1.1 dB higher, for twice the
+  // steps. 0: one pass, the run itself, at the first pass's rates.
+  int64_t pose_first_pass_steps = 3000;
+  double pose_second_pass_learning_rate = 1e-3;
   // Each step renders only the box of its image's mask grown by this fraction
   // of its size (mask_box), the camera cut to it; the losses stay those of the
   // whole picture (sums over the box divided by the whole picture's pixels and
@@ -88,6 +103,10 @@ struct GaussianTrainSummary {
   double final_loss = 0, final_psnr = 0;  // of the last logged step
   int64_t gaussians = 0;                  // at the end
   bool stopped = false;
+  // The first pass of pose refinement (pose_first_pass_steps) as this call
+  // ran it: steps [first, last); none when it had finished before or does
+  // not exist. `seconds` counts both passes.
+  int64_t pose_pass_first_step = 0, pose_pass_last_step = 0;
 };
 
 GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& options);

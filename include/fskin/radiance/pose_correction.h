@@ -67,6 +67,10 @@ class PoseCorrectionsImpl : public torch::nn::Module {
   // the given poses' frame; zero-mean noise is then learned, a pose source's
   // common bias is not (it is the rig's, and new poses carry it too).
   void center();
+  // Sets every frame's correction to `other`'s, which corrects the same
+  // given bones (throws fskin::Error otherwise): a second training pass
+  // starts from the first's poses.
+  void assign(const PoseCorrectionsImpl& other);
   const torch::Tensor& given_bones() const { return given_; }  // [F, J, 4, 4]
   // The learned tensors by kind (parameters() holds both), for optimisers
   // that step them at different rates: per frame [J, 3] and [3].
