@@ -306,12 +306,12 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
   save_canonical_character(data.character(), run.character_file());
 
   GaussianTrainSummary summary;
-  const bool two_passes = options.refine_poses && options.pose_first_pass_steps > 0;
+  const bool two_passes = options.refines_in_two_passes();
   // The second pass's poses start from the first pass's: that pass runs
   // first, to its end, unless the second has begun (a resumed run).
   PoseCorrections first_pass_poses{nullptr};
-  const RunDirectory pose_pass(run.pose_pass_directory());
   if (two_passes && !(options.resume && !run.checkpoints().empty())) {
+    const RunDirectory pose_pass(run.pose_pass_directory());
     if (!options.resume && fs::exists(pose_pass.path())) fs::remove_all(pose_pass.path());  // a fresh run's
     create_output_directory(pose_pass.path());
     GaussianTrainOptions first = options;
@@ -363,7 +363,7 @@ TrainedGaussianAvatar TrainedGaussianAvatar::load(const std::string& run_dir) {
               run_dir, config_file);
   TrainedGaussianAvatar out;
   out.options = read_gaussian_run_config(config_file, run_dir);
-  FSKIN_CHECK(!(out.options.refine_poses && out.options.pose_first_pass_steps > 0 && run.checkpoints().empty() &&
+  FSKIN_CHECK(!(out.options.refines_in_two_passes() && run.checkpoints().empty() &&
                 fs::exists(run.pose_pass_directory())),
               "{}: the run stopped in its first pass of pose refinement ({}), before the avatar itself; "
               "`fskin avatar train --data {} --out {} --representation gaussians --resume` finishes it",

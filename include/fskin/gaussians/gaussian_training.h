@@ -82,6 +82,7 @@ struct GaussianTrainOptions {
   // steps. 0: one pass, the run itself, at the first pass's rates.
   int64_t pose_first_pass_steps = 3000;
   double pose_second_pass_learning_rate = 1e-3;
+  bool refines_in_two_passes() const { return refine_poses && pose_first_pass_steps > 0; }
   // Each step renders only the box of its image's mask grown by this fraction
   // of its size (mask_box), the camera cut to it; the losses stay those of the
   // whole picture (sums over the box divided by the whole picture's pixels and
