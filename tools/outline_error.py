@@ -4,7 +4,9 @@ per image, the rendered opacity against the dataset's mask (areas in pixels,
 the opacity the mask lacks and the mask the opacity lacks), the share of
 the squared colour error within 2 pixels of the mask's outline, and the PSNR
 there and inside the mask farther than 2 pixels from it (the interior:
-colour and shading, apart from where the outline lies).
+colour and shading, apart from where the outline lies); over all images, the
+rendered area against the masks' and the share of the squared error on the
+pixels where the outline is misplaced (opacity and mask differ by over 0.25).
 
     PYTHONPATH=build/python /usr/bin/python3 tools/outline_error.py RUN [--split novel_pose] [--data DIR]
 
@@ -37,8 +39,9 @@ def main():
     poses = np.load(split / "poses.npz")
     cameras = np.load(split / "cameras.npz")
     width, height = int(cameras["width"]), int(cameras["height"])
-    band_error = total_error = interior_error = 0.0
-    band_pixels = interior_pixels = 0
+    band_error = total_error = interior_error = misplaced_error = 0.0
+    band_pixels = interior_pixels = misplaced_pixels = 0
+    rendered_total = mask_total = 0.0
     print("image  rendered area  mask area  ratio  opacity outside the mask  mask without opacity")
     for i in range(len(poses["bone_transforms"])):
         truth = fskin.read_png(str(split / "images" / f"image_{i:04d}.png")).float() / 255
@@ -56,9 +59,17 @@ def main():
         interior_error += float(error[shrunk].sum())
         interior_pixels += int(shrunk.sum())
         total_error += float(error.sum())
+        misplaced = (alpha - mask).abs() > 0.25
+        misplaced_error += float(error[misplaced].sum())
+        misplaced_pixels += int(misplaced.sum())
         rendered, truth_area = float(alpha.sum()), float(mask.sum())
+        rendered_total += rendered
+        mask_total += truth_area
         print(f"{i:5d}  {rendered:13.0f}  {truth_area:9.0f}  {rendered / truth_area:5.3f}  "
               f"{float((alpha - mask).clamp(min=0).sum()):24.0f}  {float((mask - alpha).clamp(min=0).sum()):20.0f}")
+    print(f"all images: rendered area / mask area {rendered_total / mask_total:.4f}; "
+          f"{misplaced_pixels} pixels where opacity and mask differ by over 0.25 hold "
+          f"{100 * misplaced_error / total_error:.1f} % of the squared colour error")
     print(f"squared colour error within 2 pixels of the outline: {100 * band_error / total_error:.1f} %")
     psnr = lambda error, pixels: -10 * np.log10(max(error / max(3 * pixels, 1), 1e-12))
     print(f"PSNR within 2 pixels of the outline: {psnr(band_error, band_pixels):.2f} dB; "
