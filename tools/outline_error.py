@@ -9,12 +9,19 @@ rendered area against the masks' and the share of the squared error on the
 pixels where the outline is misplaced (opacity and mask differ by over 0.25).
 
     PYTHONPATH=build/python /usr/bin/python3 tools/outline_error.py RUN [--split novel_pose] [--data DIR]
+        [--picture sheet.png --images 0,3]
+
+With --picture, a PNG of the listed images, each cropped to its mask's box and
+shown 3 times larger: the truth, the render, and the outline (red: opacity
+where the mask is empty; blue: mask without opacity; grey: the mask).
 
 Any avatar run (volume or Gaussians) that `fskin avatar eval` takes.
 """
 import argparse
 import json
 import pathlib
+import struct
+import zlib
 
 import numpy as np
 import torch
@@ -27,7 +34,11 @@ def main():
     parser.add_argument("run")
     parser.add_argument("--split", default="novel_pose", choices=("train", "novel_view", "novel_pose"))
     parser.add_argument("--data", default="", help="image dataset (default: the run's)")
+    parser.add_argument("--picture", default="", help="write the listed images' sheet to this PNG")
+    parser.add_argument("--images", default="0", help="images of the sheet, comma-separated indices")
     args = parser.parse_args()
+    sheet_images = [int(index) for index in args.images.split(",")] if args.picture else []
+    sheet_rows = []
     run = pathlib.Path(args.run)
     data = args.data
     if not data:
@@ -62,6 +73,8 @@ def main():
         misplaced = (alpha - mask).abs() > 0.25
         misplaced_error += float(error[misplaced].sum())
         misplaced_pixels += int(misplaced.sum())
+        if i in sheet_images:
+            sheet_rows.append(sheet_row(truth, rgb, alpha, mask))
         rendered, truth_area = float(alpha.sum()), float(mask.sum())
         rendered_total += rendered
         mask_total += truth_area
@@ -71,9 +84,49 @@ def main():
           f"{misplaced_pixels} pixels where opacity and mask differ by over 0.25 hold "
           f"{100 * misplaced_error / total_error:.1f} % of the squared colour error")
     print(f"squared colour error within 2 pixels of the outline: {100 * band_error / total_error:.1f} %")
+    if args.picture:
+        if len(sheet_rows) != len(sheet_images):
+            raise SystemExit(f"--images {args.images}: the split has {len(poses['bone_transforms'])} images")
+        write_png(args.picture, stack_rows(sheet_rows))
+        print(f"wrote {args.picture}")
     psnr = lambda error, pixels: -10 * np.log10(max(error / max(3 * pixels, 1), 1e-12))
     print(f"PSNR within 2 pixels of the outline: {psnr(band_error, band_pixels):.2f} dB; "
           f"inside, farther from it: {psnr(interior_error, interior_pixels):.2f} dB")
+
+
+def sheet_row(truth, rgb, alpha, mask, margin=4, zoom=3):
+    """Truth | render | outline of one image, cut to the mask's box and zoomed (no smoothing)."""
+    rows, columns = torch.nonzero(mask > 0, as_tuple=True)
+    v0, v1 = max(int(rows.min()) - margin, 0), int(rows.max()) + margin + 1
+    u0, u1 = max(int(columns.min()) - margin, 0), int(columns.max()) + margin + 1
+    difference = alpha - mask
+    outline = torch.stack([difference.clamp(min=0), torch.zeros_like(difference), (-difference).clamp(min=0)], -1)
+    outline = (2 * outline + 0.2 * mask[..., None]).clamp(0, 1)
+    panels = [picture[v0:v1, u0:u1].repeat_interleave(zoom, 0).repeat_interleave(zoom, 1)
+              for picture in (truth, rgb.clamp(0, 1), outline)]
+    return torch.cat(panels, 1)
+
+
+def stack_rows(rows):
+    """Rows of different sizes, left-aligned on white."""
+    width = max(row.shape[1] for row in rows)
+    padded = [torch.nn.functional.pad(row.permute(2, 0, 1), (0, width - row.shape[1]), value=1.0).permute(1, 2, 0)
+              for row in rows]
+    return torch.cat(padded, 0)
+
+
+def write_png(path, picture):
+    """An RGB float [H, W, 3] picture in [0, 1] as an 8-bit PNG (the standard library only)."""
+    pixels = (picture * 255).round().to(torch.uint8).numpy()
+    height, width, _ = pixels.shape
+    raw = b"".join(b"\x00" + pixels[row].tobytes() for row in range(height))
+
+    def chunk(kind, payload):
+        return struct.pack(">I", len(payload)) + kind + payload + struct.pack(">I", zlib.crc32(kind + payload))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    pathlib.Path(path).write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw))
+                                   + chunk(b"IEND", b""))
 
 
 if __name__ == "__main__":
