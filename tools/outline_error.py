@@ -20,8 +20,6 @@ Any avatar run (volume or Gaussians) that `fskin avatar eval` takes.
 import argparse
 import json
 import pathlib
-import struct
-import zlib
 
 import numpy as np
 import torch
@@ -87,7 +85,7 @@ def main():
     if args.picture:
         if len(sheet_rows) != len(sheet_images):
             raise SystemExit(f"--images {args.images}: the split has {len(poses['bone_transforms'])} images")
-        write_png(args.picture, stack_rows(sheet_rows))
+        fskin.write_png(args.picture, (stack_rows(sheet_rows) * 255).round().to(torch.uint8))
         print(f"wrote {args.picture}")
     psnr = lambda error, pixels: -10 * np.log10(max(error / max(3 * pixels, 1), 1e-12))
     print(f"PSNR within 2 pixels of the outline: {psnr(band_error, band_pixels):.2f} dB; "
@@ -113,20 +111,6 @@ def stack_rows(rows):
     padded = [torch.nn.functional.pad(row.permute(2, 0, 1), (0, width - row.shape[1]), value=1.0).permute(1, 2, 0)
               for row in rows]
     return torch.cat(padded, 0)
-
-
-def write_png(path, picture):
-    """An RGB float [H, W, 3] picture in [0, 1] as an 8-bit PNG (the standard library only)."""
-    pixels = (picture * 255).round().to(torch.uint8).numpy()
-    height, width, _ = pixels.shape
-    raw = b"".join(b"\x00" + pixels[row].tobytes() for row in range(height))
-
-    def chunk(kind, payload):
-        return struct.pack(">I", len(payload)) + kind + payload + struct.pack(">I", zlib.crc32(kind + payload))
-
-    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
-    pathlib.Path(path).write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw))
-                                   + chunk(b"IEND", b""))
 
 
 if __name__ == "__main__":

@@ -48,6 +48,7 @@ from ._fskin import (  # noqa: F401
     train_gaussian_avatar,
     training_poses,
     write_mesh,
+    write_png,
 )
 from ._fskin import openblas_core, recommended_openblas_core  # noqa: F401
 from .deformers import FastSnarfDeformer, SnarfDeformer  # noqa: F401  (torch.nn.Modules over the C++ search)

@@ -396,3 +396,7 @@ def training_poses(body: BodyModel, sequences: int = ..., frames: int = ..., see
 def write_mesh(path: str, vertices: torch.Tensor, faces: torch.Tensor, colors: Optional[torch.Tensor] = ...) -> None:
     """Write a mesh (vertices [V, 3], faces [F, 3], colours [V, 3] uint8) as .ply or .obj"""
     ...
+
+def write_png(path: str, image: torch.Tensor) -> None:
+    """Write an RGB uint8 [H, W, 3] tensor as an 8-bit PNG (atomically), as read_png reads it"""
+    ...

@@ -42,6 +42,24 @@ void bind_avatars(py::module_& m) {
       "An 8-bit PNG (grey, grey + alpha, RGB or RGBA) as RGB uint8 [H, W, 3], alpha dropped (a dataset's "
       "images and masks)");
   m.def(
+      "write_png",
+      [](const std::string& path, const torch::Tensor& image) {
+        FSKIN_CHECK(image.dim() == 3 && image.size(2) == 3 && image.scalar_type() == torch::kUInt8,
+                    "write_png: {}: need an RGB uint8 tensor [H, W, 3], got {} of {}", path,
+                    shape_string(image.sizes()), c10::toString(image.scalar_type()));
+        FSKIN_CHECK(image.size(0) > 0 && image.size(1) > 0 && image.size(0) <= kMaxImageSide &&
+                        image.size(1) <= kMaxImageSide,
+                    "write_png: {}: a {} x {} picture; need 1..{} pixels a side", path, image.size(1),
+                    image.size(0), kMaxImageSide);
+        const auto pixels = image.contiguous().cpu();
+        fskin::Image out(static_cast<int>(pixels.size(1)), static_cast<int>(pixels.size(0)));
+        std::copy(pixels.data_ptr<uint8_t>(), pixels.data_ptr<uint8_t>() + pixels.numel(), out.rgb.begin());
+        py::gil_scoped_release release;
+        fskin::write_png(path, out);
+      },
+      py::arg("path"), py::arg("image"),
+      "Write an RGB uint8 [H, W, 3] tensor as an 8-bit PNG (atomically), as read_png reads it");
+  m.def(
       "build_image_dataset",
       [](const std::string& model_path, const torch::Tensor& poses, const std::string& out,
          const std::optional<torch::Tensor>& held_out_poses, int size, int width, int height, int views,

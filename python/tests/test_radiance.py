@@ -178,6 +178,10 @@ def test_gaussian_avatars_train_evaluate_render_and_export(tmp_path):
     assert truth.shape == (32, 32, 3) and truth.dtype == torch.uint8 and int(truth.max()) > 0
     with pytest.raises(fskin.Error, match="nothing.png"):
         fskin.read_png(str(tmp_path / "nothing.png"))
+    fskin.write_png(str(tmp_path / "copy.png"), truth.flip(1))
+    assert torch.equal(fskin.read_png(str(tmp_path / "copy.png")), truth.flip(1))
+    with pytest.raises(fskin.Error, match="bad.png.*RGB uint8"):
+        fskin.write_png(str(tmp_path / "bad.png"), truth.float())
     fskin.export_avatar(run, str(tmp_path / "avatar.ply"), bones=torch.from_numpy(bones))
     header = (tmp_path / "avatar.ply").read_bytes()[:200]
     assert header.startswith(b"ply\nformat binary_little_endian 1.0\n")
