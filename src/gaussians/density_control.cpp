@@ -55,11 +55,12 @@ torch::Tensor DensityStatistics::mean_gradient() const { return sum_ / count_.cl
 
 namespace {
 
-constexpr size_t kParameters = 8;  // the surface weights take no optimiser
+constexpr size_t kParameters = 9;  // the surface weights and anchors take no optimiser
 
 std::array<torch::Tensor*, kParameters> gaussian_parameters(GaussianAvatarImpl& avatar) {
   return {&avatar.means(),          &avatar.log_scales(), &avatar.rotations(),      &avatar.opacity_logits(),
-          &avatar.sh_dc(),          &avatar.sh_rest(),    &avatar.surface_weights(), &avatar.skinning_corrections()};
+          &avatar.sh_dc(),          &avatar.sh_rest(),    &avatar.surface_weights(), &avatar.skinning_corrections(),
+          &avatar.surface_anchors()};
 }
 
 torch::optim::AdamParamState* adam_state(torch::optim::Adam& adam, const torch::Tensor& parameter) {
@@ -88,7 +89,7 @@ void edit_gaussians(GaussianAvatarImpl& avatar, torch::optim::Adam& adam, const 
     }
   }
   avatar.replace_gaussians(values[0], values[1], values[2], values[3], values[4], values[5], values[6],
-                           values[7]);
+                           values[7], values[8]);
 }
 
 // The rows `index` of every parameter, in gaussian_parameters' order.

@@ -79,16 +79,21 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
   means_ = register_parameter("means", points);
   auto log_scales = torch::full({n, 3}, static_cast<float>(std::log(spacing)));
   auto rotations = torch::tensor({1.0f, 0.0f, 0.0f, 0.0f}).repeat({n, 1});
+  const auto corners = f.index_select(0, samples.faces);
+  const auto corner_a = v.index_select(0, corners.select(1, 0));
+  const auto face_normal = torch::cross(v.index_select(0, corners.select(1, 1)) - corner_a,
+                                        v.index_select(0, corners.select(1, 2)) - corner_a, 1);
+  const auto unit_normal = face_normal / face_normal.norm(2, 1, true).clamp_min(1e-30);
+  surface_anchors_ = torch::zeros({n, 0});
+  if (options_.anchored) {
+    surface_anchors_ = register_buffer("surface_anchors", torch::cat({points.detach(), unit_normal.to(torch::kFloat32)}, 1));
+  }
   if (options_.initial_thickness < 1 || options_.shading != "none") {
     // Discs in the faces' planes: the local z axis along the face normal
     // (outward where faces wind counter-clockwise seen from outside, glTF's
     // convention), that scale thinner; shading reads the z axis as the normal.
     log_scales.select(1, 2).add_(static_cast<float>(std::log(options_.initial_thickness)));
-    const auto corners = f.index_select(0, samples.faces);
-    const auto a = v.index_select(0, corners.select(1, 0));
-    const auto normal = torch::cross(v.index_select(0, corners.select(1, 1)) - a,
-                                     v.index_select(0, corners.select(1, 2)) - a, 1);
-    const auto z = normal / normal.norm(2, 1, true).clamp_min(1e-30);
+    const auto& z = unit_normal;
     // Any x perpendicular to z: the world axis least aligned with it, made orthogonal.
     const auto least = z.abs().argmin(1);
     auto x = torch::zeros_like(z).scatter_(1, least.unsqueeze(1), 1.0);
@@ -165,10 +170,21 @@ GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const Pinh
   return out;
 }
 
+torch::Tensor GaussianAvatarImpl::anchor_heights() const {
+  FSKIN_CHECK(options_.anchored, "gaussian avatar: anchor heights asked of an avatar without anchors");
+  const auto point = surface_anchors_.narrow(1, 0, 3), normal = surface_anchors_.narrow(1, 3, 3);
+  return ((means_ - point) * normal).sum(1);
+}
+
+void GaussianAvatarImpl::load(torch::serialize::InputArchive& archive) {
+  torch::nn::Module::load(archive);
+  if (!options_.anchored) surface_anchors_ = torch::zeros({size(), 0});
+}
+
 void GaussianAvatarImpl::replace_gaussians(torch::Tensor means, torch::Tensor log_scales, torch::Tensor rotations,
                                            torch::Tensor opacity_logits, torch::Tensor sh_dc,
                                            torch::Tensor sh_rest, torch::Tensor surface_weights,
-                                           torch::Tensor skinning_corrections) {
+                                           torch::Tensor skinning_corrections, torch::Tensor surface_anchors) {
   const int64_t n = means.size(0);
   expect_shape(means, {n, 3}, "gaussian avatar: means");
   expect_shape(log_scales, {n, 3}, "gaussian avatar: log_scales");
@@ -178,6 +194,7 @@ void GaussianAvatarImpl::replace_gaussians(torch::Tensor means, torch::Tensor lo
   expect_shape(sh_rest, {n, sh_rest_.size(1), 3}, "gaussian avatar: sh_rest");
   expect_shape(surface_weights, {n, surface_weights_.size(1)}, "gaussian avatar: surface_weights");
   expect_shape(skinning_corrections, {n, skinning_corrections_.size(1)}, "gaussian avatar: skinning_corrections");
+  expect_shape(surface_anchors, {n, surface_anchors_.size(1)}, "gaussian avatar: surface_anchors");
   // set_data keeps each parameter's identity (the module's registry and the
   // optimiser's parameter lists still hold it) while its size changes; the
   // optimiser's per-parameter state is the caller's to resize. Gradients of
@@ -191,6 +208,7 @@ void GaussianAvatarImpl::replace_gaussians(torch::Tensor means, torch::Tensor lo
   sh_rest_.set_data(sh_rest.detach().clone());
   surface_weights_.set_data(surface_weights.detach().clone());
   skinning_corrections_.set_data(skinning_corrections.detach().clone());
+  surface_anchors_.set_data(surface_anchors.detach().clone());
   for (auto* p : {&means_, &log_scales_, &rotations_, &opacity_logits_, &sh_dc_, &sh_rest_, &skinning_corrections_}) {
     p->mutable_grad() = torch::Tensor();
   }

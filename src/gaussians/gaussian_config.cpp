@@ -66,6 +66,7 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/losses/mask/weight", mask_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/skinning/weight", skinning_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/non_rigid/weight", non_rigid_weight),
+    FSKIN_GAUSSIAN_FIELD("/losses/surface_layer/weight", layer_weight),
     FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/means", means_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/scales", scales_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/rotations", rotations_learning_rate),
@@ -119,6 +120,8 @@ GaussianTrainOptions read_gaussian_run_config(const std::string& path, const std
   // ... those written before disc-shaped starts began with spheres, and pruned by the size alone.
   if (!document.contains(json::json_pointer("/model/gaussians/initial_thickness"))) base.avatar.initial_thickness = 1;
   if (!document.contains(json::json_pointer("/density/max_scale_spacings"))) base.density.max_scale_spacings = 0;
+  // ... and those written before the surface layer prior kept no anchors.
+  if (!document.contains(json::json_pointer("/losses/surface_layer/weight"))) base.layer_weight = 0;
   return gaussian_options_from_document(document, base, path);
 }
 

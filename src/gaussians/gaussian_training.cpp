@@ -18,6 +18,7 @@
 #include "fskin/engine/trainer.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/gaussians/gaussian_config.h"
+#include "fskin/gaussians/surface_layer.h"
 #include "fskin/radiance/avatar_character.h"
 #include "fskin/radiance/image_dataset.h"
 #include "fskin/radiance/image_metrics.h"
@@ -69,6 +70,8 @@ void GaussianTrainOptions::validate() const {
   FSKIN_CHECK(std::isfinite(mask_weight) && mask_weight >= 0, "gaussian avatar train: the mask weight must be >= 0");
   FSKIN_CHECK(std::isfinite(non_rigid_weight) && non_rigid_weight >= 0,
               "gaussian avatar train: losses.non_rigid.weight must be >= 0, got {}", non_rigid_weight);
+  FSKIN_CHECK(std::isfinite(layer_weight) && layer_weight >= 0,
+              "gaussian avatar train: losses.surface_layer.weight must be >= 0, got {}", layer_weight);
   FSKIN_CHECK(std::isfinite(pose_regularizer) && pose_regularizer >= 0,
               "gaussian avatar train: pose_refinement.regularizer must be >= 0, got {}", pose_regularizer);
   FSKIN_CHECK(pose_first_pass_steps >= 0, "gaussian avatar train: pose_refinement.first_pass_steps must be >= 0, got {}",
@@ -220,6 +223,11 @@ class GaussianTrainable : public Trainable {
       out.total = out.total + prior;
       out.terms.emplace_back("skinning", prior.detach());
     }
+    if (options_.layer_weight > 0) {
+      const auto prior = options_.layer_weight * surface_layer_spread(*avatar_);
+      out.total = out.total + prior;
+      out.terms.emplace_back("layer", prior.detach());
+    }
     if (corrections_) {
       const auto pose_loss = options_.pose_regularizer * corrections_->squared_size({frame_[i]});
       out.total = out.total + pose_loss;
@@ -317,7 +325,7 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
     GaussianTrainOptions first = options;
     first.steps = options.pose_first_pass_steps;
     torch::manual_seed(options.seed);
-    GaussianAvatar first_avatar(data.character(), options.avatar, options.seed);
+    GaussianAvatar first_avatar(data.character(), options.avatar_options(), options.seed);
     GaussianTrainable first_trainable(first_avatar, first, data, split);
     const auto result =
         Trainer(pose_pass, trainer_settings(first, "gaussian avatar train, pass 1 of 2 (poses)")).run(first_trainable);
@@ -335,7 +343,7 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
   if (two_passes) second.pose_learning_rate = options.pose_second_pass_learning_rate;
   second.resume = options.resume && !run.checkpoints().empty();  // none yet: the pass starts
   torch::manual_seed(options.seed);
-  GaussianAvatar avatar(data.character(), options.avatar, options.seed);
+  GaussianAvatar avatar(data.character(), options.avatar_options(), options.seed);
   GaussianTrainable trainable(avatar, second, data, split);
   // A resumed second pass reads its poses from its checkpoint instead.
   if (first_pass_poses) trainable.corrections()->assign(*first_pass_poses);
@@ -369,7 +377,7 @@ TrainedGaussianAvatar TrainedGaussianAvatar::load(const std::string& run_dir) {
               "`fskin avatar train --data {} --out {} --representation gaussians --resume` finishes it",
               run_dir, run.pose_pass_directory(), out.options.data_dir, run_dir);
   const auto character = load_canonical_character(run.character_file());
-  out.avatar = GaussianAvatar(character, out.options.avatar, out.options.seed);
+  out.avatar = GaussianAvatar(character, out.options.avatar_options(), out.options.seed);
   if (out.options.refine_poses) {
     out.skeleton = character.skeleton;
     out.size = character_size(character.mesh.vertices, "gaussian avatar: canonical vertices");

@@ -42,7 +42,8 @@ TEST(GaussianAvatar, GaussiansOnTheVerticesFollowTheMeshsLinearBlendSkinning) {
     const auto weights = source == "surface" ? character.weights.to(torch::kFloat32) : torch::zeros({n, 0});
     avatar->replace_gaussians(vertices, torch::zeros({n, 3}),
                               torch::tensor({1.0f, 0.0f, 0.0f, 0.0f}).repeat({n, 1}), torch::zeros({n}),
-                              torch::zeros({n, 1, 3}), torch::zeros({n, 0, 3}), weights, torch::zeros({n, 0}));
+                              torch::zeros({n, 1, 3}), torch::zeros({n, 0, 3}), weights, torch::zeros({n, 0}),
+                              torch::zeros({n, 0}));
     EXPECT_EQ(avatar->size(), n);
     const auto height = (vertices.select(1, 1).max() - vertices.select(1, 1).min()).item<double>();
     for (int64_t frame = 0; frame < split.size(); ++frame) {

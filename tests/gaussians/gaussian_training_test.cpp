@@ -13,6 +13,7 @@
 #include "fskin/gaussians/density_control.h"
 #include "fskin/gaussians/gaussian_config.h"
 #include "fskin/gaussians/gaussian_evaluation.h"
+#include "fskin/gaussians/surface_layer.h"
 #include "fskin/radiance/image_metrics.h"
 #include "gaussians/tiny_gaussian_training.h"
 #include "radiance/tiny_image_dataset.h"
@@ -28,6 +29,7 @@ TEST(GaussianDensityControl, ClonesSplitsAndPrunesWithTheirAdamMoments) {
   options.initial_gaussians = 40;
   options.skinning_grid_resolution = 16;
   options.learned_skinning = true;
+  options.anchored = true;
   GaussianAvatar avatar(dataset.character(), options, 0);
   const double size = 1.7;
   {
@@ -55,6 +57,7 @@ TEST(GaussianDensityControl, ClonesSplitsAndPrunesWithTheirAdamMoments) {
   const auto before_sh = avatar->sh_dc().detach().clone();
   const auto before_weights = avatar->surface_weights().clone();
   const auto before_corrections = avatar->skinning_corrections().detach().clone();
+  const auto before_anchors = avatar->surface_anchors().clone();
   DensityControlOptions control;
   const auto change = densify_and_prune(*avatar, statistics, adam, control, size);
   EXPECT_EQ(change.cloned, 10);
@@ -75,6 +78,12 @@ TEST(GaussianDensityControl, ClonesSplitsAndPrunesWithTheirAdamMoments) {
   EXPECT_TRUE(torch::equal(avatar->surface_weights().narrow(0, 45, 10), before_weights.narrow(0, 10, 10)));
   EXPECT_TRUE(torch::equal(avatar->skinning_corrections().narrow(0, 25, 10), before_corrections.narrow(0, 0, 10)));
   EXPECT_TRUE(torch::equal(avatar->skinning_corrections().narrow(0, 45, 10), before_corrections.narrow(0, 10, 10)));
+  // ... and its surface anchor.
+  ASSERT_EQ(avatar->surface_anchors().sizes(), (std::vector<int64_t>{55, 6}));
+  EXPECT_TRUE(torch::equal(avatar->surface_anchors().narrow(0, 0, 25), before_anchors.index_select(0, kept)));
+  EXPECT_TRUE(torch::equal(avatar->surface_anchors().narrow(0, 25, 10), before_anchors.narrow(0, 0, 10)));
+  EXPECT_TRUE(torch::equal(avatar->surface_anchors().narrow(0, 35, 10), before_anchors.narrow(0, 10, 10)));
+  EXPECT_TRUE(torch::equal(avatar->surface_anchors().narrow(0, 45, 10), before_anchors.narrow(0, 10, 10)));
   const auto half_scales = torch::exp(avatar->log_scales().narrow(0, 35, 20));
   // (Adam's one step moved the log-scales by about its learning rate.)
   EXPECT_TRUE(torch::allclose(half_scales, torch::full_like(half_scales, 0.05 * size / 1.6), 2e-3, 0.0));
@@ -143,6 +152,16 @@ TEST(GaussianTraining, AShortRunLearnsTheTinyDataset) {
   EXPECT_GT(novel_pose.mean_psnr, before + 2.0) << "before " << before;
   EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(options.out_dir) / "gaussian_avatar.json"));
   EXPECT_TRUE(is_gaussian_avatar_run(options.out_dir));
+  // The surface layer prior (on by default) trained with it, and its anchors came through density control.
+  std::ifstream log(options.out_dir + "/log.jsonl");
+  std::string line, last;
+  while (std::getline(log, line)) last = line;
+  EXPECT_NE(last.find("\"layer\""), std::string::npos) << last;
+  const auto trained = TrainedGaussianAvatar::load(options.out_dir);
+  ASSERT_TRUE(trained.avatar->options().anchored);
+  EXPECT_EQ(trained.avatar->surface_anchors().size(0), trained.avatar->size());
+  // 0.012 here; 0.086 with a negligible weight (1e-9).
+  EXPECT_LT(surface_layer_spread(*trained.avatar).item<double>(), 0.04);
 }
 
 TEST(GaussianTraining, AMonocularDatasetTrainsAndItsHeldOutViewsImprove) {
@@ -238,12 +257,21 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   old_document["model"]["gaussians"].erase("antialiased");
   old_document["model"]["gaussians"].erase("initial_thickness");
   old_document["density"].erase("max_scale_spacings");
+  old_document["losses"].erase("surface_layer");
   std::ofstream(dir / "run.json") << old_document.dump();
   const auto old = read_gaussian_run_config((dir / "run.json").string(), dir.string()).avatar;
   EXPECT_EQ(old.skinning_source, "grid");
   EXPECT_FALSE(old.antialiased);
   EXPECT_EQ(old.initial_thickness, 1.0);
   EXPECT_EQ(read_gaussian_run_config((dir / "run.json").string(), dir.string()).density.max_scale_spacings, 0.0);
+  // ... and without the surface layer prior, whose anchors its checkpoints lack.
+  const auto old_options = read_gaussian_run_config((dir / "run.json").string(), dir.string());
+  EXPECT_EQ(old_options.layer_weight, 0.0);
+  EXPECT_FALSE(old_options.avatar_options().anchored);
+  EXPECT_GT(changed.layer_weight, 0.0);
+  EXPECT_TRUE(changed.avatar_options().anchored);
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.surface_layer.weight=-1"}); },
+                        {"losses.surface_layer.weight must be >= 0"});
   EXPECT_TRUE(changed.avatar.antialiased);
   EXPECT_LT(changed.avatar.initial_thickness, 1.0);
   testing::expect_error([&] { TrainedGaussianAvatar::load(testing::temp_dir("not_a_gaussian_run").string()); },

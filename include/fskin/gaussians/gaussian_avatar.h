@@ -46,6 +46,13 @@ struct GaussianAvatarOptions {
   // outside the surface widens the silhouette from every camera whose
   // outline it does not lie on, which few training views correct.
   double initial_thickness = 0.03;
+  // Each Gaussian keeps the mesh point it was sampled on and that face's
+  // normal (surface_anchors; its clones and splits inherit them), for priors
+  // on where it lies against the surface (gaussians/surface_layer.h). Set by
+  // the training from its prior's weight (GaussianTrainOptions::avatar_options),
+  // not a config key of its own: a checkpoint holds the anchors exactly when
+  // its run has the prior.
+  bool anchored = false;
   std::string skinning_source = "surface";  // "surface" | "grid" (above)
   int64_t skinning_grid_resolution = 64;     // "grid": voxels along the canonical box's longest side
   bool learned_skinning = false;             // learn a per-Gaussian correction of the weights (above)
@@ -140,6 +147,18 @@ class GaussianAvatarImpl : public torch::nn::Module {
   GaussianShading& shading() { return shading_; }
   const GaussianShading& shading() const { return shading_; }
 
+  // [N, 6]: per Gaussian the canonical mesh point it was sampled on and the
+  // face's unit normal there; [N, 0] unless options().anchored (a buffer).
+  torch::Tensor& surface_anchors() { return surface_anchors_; }
+  const torch::Tensor& surface_anchors() const { return surface_anchors_; }
+  // [N] each mean's height above its anchor's tangent plane (along the
+  // normal; negative: below the surface), differentiable in the means.
+  torch::Tensor anchor_heights() const;
+
+  // Module::load, and the unregistered [N, 0] anchors of an avatar without
+  // them sized to the loaded Gaussians.
+  void load(torch::serialize::InputArchive& archive) override;
+
   // Replaces every per-Gaussian tensor by a gathered, extended or filtered
   // version (densification and pruning); the tensors must agree in N. The
   // parameters keep their identity (optimisers keep holding them); graphs
@@ -147,7 +166,8 @@ class GaussianAvatarImpl : public torch::nn::Module {
   // gradient accumulators expect the old sizes).
   void replace_gaussians(torch::Tensor means, torch::Tensor log_scales, torch::Tensor rotations,
                          torch::Tensor opacity_logits, torch::Tensor sh_dc, torch::Tensor sh_rest,
-                         torch::Tensor surface_weights, torch::Tensor skinning_corrections);
+                         torch::Tensor surface_weights, torch::Tensor skinning_corrections,
+                         torch::Tensor surface_anchors);
 
  private:
   GaussianAvatarOptions options_;
@@ -156,7 +176,8 @@ class GaussianAvatarImpl : public torch::nn::Module {
   std::shared_ptr<FrozenSkinningField> skinning_;  // the "grid" source only
   NonRigidOffset non_rigid_{nullptr};
   GaussianShading shading_{nullptr};
-  torch::Tensor means_, log_scales_, rotations_, opacity_logits_, sh_dc_, sh_rest_, surface_weights_, skinning_corrections_;
+  torch::Tensor means_, log_scales_, rotations_, opacity_logits_, sh_dc_, sh_rest_, surface_weights_, skinning_corrections_,
+      surface_anchors_;
 };
 TORCH_MODULE(GaussianAvatar);
 
