@@ -12,18 +12,18 @@ frame stands for the world's: a fair proxy where the root barely turns.
 
     PYTHONPATH=build/python /usr/bin/python3 tools/gaussian_depth.py RUN [--cameras 4]
 
-RUN is a Gaussian avatar run; its Gaussians are read through `fskin avatar
-export` (the CLI in FSKIN_CLI, default build/fskin) into a temporary PLY.
+RUN is a Gaussian avatar run; its Gaussians are read from the 3DGS PLY that
+`fskin.export_avatar` writes into a temporary folder.
 """
 import argparse
 import json
-import os
 import pathlib
-import subprocess
 import tempfile
 
 import numpy as np
 import torch
+
+import fskin
 
 
 def read_gaussians(ply):
@@ -47,10 +47,13 @@ def main():
     parser.add_argument("--cameras", type=int, default=4, help="training cameras on the ring (from azimuth 0)")
     args = parser.parse_args()
     run = pathlib.Path(args.run)
-    cli = os.environ.get("FSKIN_CLI", "build/fskin")
+    if not (run / "gaussian_avatar.json").is_file():
+        raise SystemExit(f"{run}: not a Gaussian avatar run (no gaussian_avatar.json)")
+    if args.cameras < 1:
+        raise SystemExit(f"--cameras {args.cameras}: need at least 1")
     with tempfile.TemporaryDirectory() as scratch:
         ply = pathlib.Path(scratch) / "gaussians.ply"
-        subprocess.run([cli, "avatar", "export", str(run), "--out", str(ply)], check=True, capture_output=True)
+        fskin.export_avatar(str(run), str(ply))
         means, opacity = read_gaussians(ply)
     character = np.load(run / "canonical.npz")
     vertices, faces = character["vertices"].astype(np.float64), character["faces"]
