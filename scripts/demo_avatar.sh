@@ -6,8 +6,9 @@
 # and on held-out poses seen from held-out views (one JSON per split), and a
 # picture of the learned avatar beside the ground truth in unseen poses from
 # unseen views; then the same with an avatar of articulated 3-D Gaussians
-# (docs/gaussian_avatars.md) and the two side by side. FSKIN_AVATAR_STEPS and
-# FSKIN_AVATAR_SIZE shorten it.
+# (docs/gaussian_avatars.md), exported as Gaussians and as the character's
+# mesh with their colours baked in, and the three side by side.
+# FSKIN_AVATAR_STEPS and FSKIN_AVATAR_SIZE shorten it.
 set -euo pipefail
 FSKIN=${1:-build/fskin}
 OUT=${2:-demo-avatar-output}
@@ -48,14 +49,18 @@ gaussians_seconds=$(( $(date +%s) - gaussians_start ))
 "$FSKIN" avatar eval "$OUT/gaussians" --split novel_pose --json "$OUT/gaussians_eval_novel_pose.json" --quiet
 "$FSKIN" avatar render "$OUT/gaussians" --split novel_pose --index 0,3,6 --compare \
   --out "$OUT/gaussians_novel_poses_vs_truth.png"
-# For engines: the Gaussians as a skinned glTF (KHR_gaussian_splatting) playing the held-out poses.
+# For engines: the Gaussians as a skinned glTF (KHR_gaussian_splatting) playing the held-out poses, and,
+# for engines that draw no Gaussians, the character's mesh with the Gaussians' colours baked into it.
 "$FSKIN" avatar export "$OUT/gaussians" --split novel_pose --out "$OUT/gaussian_avatar.glb"
+"$FSKIN" avatar export "$OUT/gaussians" --mesh --split novel_pose --out "$OUT/gaussian_avatar_mesh.glb"
+"$FSKIN" avatar eval "$OUT/gaussians" --mesh --split novel_view --json "$OUT/mesh_eval_novel_view.json" --quiet
+"$FSKIN" avatar eval "$OUT/gaussians" --mesh --split novel_pose --json "$OUT/mesh_eval_novel_pose.json" --quiet
 echo
 echo "== volume avatar vs Gaussian avatar (PSNR over the whole image / the subject's box, dB)"
 /usr/bin/python3 - "$OUT" "$gaussians_seconds" <<'PY'
 import json, sys
 out = sys.argv[1]
-for name, prefix in (("volume", "eval"), ("gaussians", "gaussians_eval")):
+for name, prefix in (("volume", "eval"), ("gaussians", "gaussians_eval"), ("gaussians as a mesh", "mesh_eval")):
     row = [name]
     for split in ("novel_view", "novel_pose"):
         scores = json.load(open(f"{out}/{prefix}_{split}.json"))

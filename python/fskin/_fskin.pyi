@@ -269,17 +269,20 @@ def evaluate(run: str, split: str = ..., data: str = ..., checkpoint: str = ...,
     """IoU_bbox / IoU_surf of a trained run on a split, as `fskin eval` computes them"""
     ...
 
-def evaluate_avatar(run: str, split: str = ..., data: str = ..., max_images: int = ..., fit_poses: int = ...) -> Any:
+def evaluate_avatar(run: str, split: str = ..., data: str = ..., max_images: int = ..., fit_poses: int = ..., mesh: bool = ...) -> Any:
     """`fskin avatar eval`: PSNR / SSIM per image of a split, as a dict (mean_psnr, mean_ssim, frames,
-    ...); fit_poses > 0: each image's pose fitted to it first (test-time pose optimisation)"""
+    ...); fit_poses > 0: each image's pose fitted to it first (test-time pose optimisation); mesh=True:
+    a Gaussian avatar's baked mesh (`avatar export --mesh`) scored instead of its Gaussians"""
     ...
 
-def export_avatar(run: str, out: str, bones: Optional[torch.Tensor] = ..., resolution: int = ..., fps: float = ..., influences: int = ..., data: str = ...) -> None:
+def export_avatar(run: str, out: str, bones: Optional[torch.Tensor] = ..., resolution: int = ..., fps: float = ..., influences: int = ..., data: str = ..., mesh: bool = ..., subdivisions: int = ...) -> None:
     """`fskin avatar export`: the avatar as a rigged glTF character (.glb/.gltf): its coloured surface
     (COLOR_0), the skinning weights it is posed with, the dataset's skeleton; bones [T, J, 4, 4]
     (canonical -> posed) as an animation. A Gaussian avatar's run: its Gaussians as a 3DGS .ply (every
     weight) or a glTF with KHR_gaussian_splatting (influences apply), with weights, skeleton and
-    animation (resolution does not apply)"""
+    animation (resolution does not apply); with mesh=True the character's mesh, subdivided
+    `subdivisions` times (-1: to the Gaussians' number), with the Gaussians' colours baked into its
+    vertices, as a skinned glTF (`avatar export --mesh`)"""
     ...
 
 def hash_encoding(positions: torch.Tensor, table: torch.Tensor, levels: int = ..., features_per_level: int = ..., log2_table_size: int = ..., base_resolution: int = ..., per_level_scale: float = ...) -> torch.Tensor:

@@ -5,6 +5,7 @@
 
 #include "fskin/export/image.h"
 #include "fskin/export/skinned_gltf.h"
+#include "fskin/gaussians/gaussian_baking.h"
 #include "fskin/gaussians/gaussian_config.h"
 #include "fskin/gaussians/gaussian_evaluation.h"
 #include "fskin/gaussians/gaussian_export.h"
@@ -170,17 +171,26 @@ void bind_avatars(py::module_& m) {
   m.def(
       "export_avatar",
       [](const std::string& run, const std::string& out, const std::optional<torch::Tensor>& bones, int64_t resolution,
-         double fps, int64_t influences, const std::string& data) {
+         double fps, int64_t influences, const std::string& data, bool mesh, int64_t subdivisions) {
         py::gil_scoped_release release;
         const auto given = bones ? bones->detach().to(torch::kCPU, torch::kFloat32) : torch::Tensor();
-        if (fskin::is_gaussian_avatar_run(run)) {  // .ply or glTF by extension (docs/gaussian_avatars.md)
+        const bool gaussians = fskin::is_gaussian_avatar_run(run);
+        FSKIN_CHECK(!mesh || gaussians,
+                    "{}: mesh=True bakes a Gaussian avatar into a mesh; a volume avatar's export is a mesh already", run);
+        if (gaussians) {  // .ply or glTF by extension (docs/gaussian_avatars.md)
           auto trained = fskin::TrainedGaussianAvatar::load(run);
           const fskin::ImageDataset dataset(data.empty() ? trained.options.data_dir : data);
           fskin::GaussianExportOptions file;
           file.bones = given;
           file.fps = fps;
           file.influences = influences;
-          fskin::write_gaussian_avatar_file(out, *trained.avatar, dataset.character().skeleton, file);
+          if (mesh) {
+            fskin::GaussianBakingOptions baking;
+            baking.subdivisions = subdivisions;
+            fskin::write_gaussian_mesh_file(out, *trained.avatar, dataset.character(), file, baking);
+          } else {
+            fskin::write_gaussian_avatar_file(out, *trained.avatar, dataset.character().skeleton, file);
+          }
           return;
         }
         auto trained = fskin::TrainedAvatar::load(run);
@@ -193,11 +203,13 @@ void bind_avatars(py::module_& m) {
         fskin::write_skinned_gltf(out, character);
       },
       py::arg("run"), py::arg("out"), py::arg("bones") = py::none(), py::arg("resolution") = 128, py::arg("fps") = 30.0,
-      py::arg("influences") = 4, py::arg("data") = "",
+      py::arg("influences") = 4, py::arg("data") = "", py::arg("mesh") = false, py::arg("subdivisions") = -1,
       "`fskin avatar export`: the avatar as a rigged glTF character (.glb/.gltf): its coloured surface (COLOR_0), "
       "the skinning weights it is posed with, the dataset's skeleton; bones [T, J, 4, 4] (canonical -> posed) as "
       "an animation. A Gaussian avatar's run: its Gaussians as a 3DGS .ply (every weight) or a glTF with "
-      "KHR_gaussian_splatting (influences apply), with weights, skeleton and animation (resolution does not apply)");
+      "KHR_gaussian_splatting (influences apply), with weights, skeleton and animation (resolution does not apply); "
+      "with mesh=True the character's mesh, subdivided `subdivisions` times (-1: to the Gaussians' number), with "
+      "the Gaussians' colours baked into its vertices, as a skinned glTF (`avatar export --mesh`)");
   m.def(
       "train_avatar",
       [](const std::string& data, const std::string& out, int64_t steps, int64_t rays_per_step, bool resume,
@@ -260,20 +272,26 @@ void bind_avatars(py::module_& m) {
   m.def(
       "evaluate_avatar",
       [](const std::string& run, const std::string& split, const std::string& data, int64_t max_images,
-         int64_t fit_poses) {
+         int64_t fit_poses, bool mesh) {
         fskin::PoseFittingOptions fitting;
         fitting.steps = fit_poses;
         py::gil_scoped_release release;
-        const auto scores = fskin::is_gaussian_avatar_run(run)
-                                 ? fskin::evaluate_gaussian_avatar_run(run, data, split, max_images, false, fitting)
-                                 : fskin::evaluate_avatar_run(run, data, split, max_images, false, fitting);
+        const bool gaussians = fskin::is_gaussian_avatar_run(run);
+        FSKIN_CHECK(!mesh || gaussians, "{}: mesh=True scores a Gaussian avatar's baked mesh; this is a volume avatar",
+                    run);
+        FSKIN_CHECK(!mesh || fit_poses == 0, "fit_poses fits the Gaussians' poses; it does not apply with mesh=True");
+        const auto scores =
+            mesh        ? fskin::evaluate_baked_gaussian_mesh(run, data, split, max_images, false)
+            : gaussians ? fskin::evaluate_gaussian_avatar_run(run, data, split, max_images, false, fitting)
+                        : fskin::evaluate_avatar_run(run, data, split, max_images, false, fitting);
         py::gil_scoped_acquire acquire;
         return py::module_::import("json").attr("loads")(scores.to_json());
       },
       py::arg("run"), py::arg("split") = "novel_view", py::arg("data") = "", py::arg("max_images") = 0,
-      py::arg("fit_poses") = 0,
+      py::arg("fit_poses") = 0, py::arg("mesh") = false,
       "`fskin avatar eval`: PSNR / SSIM per image of a split, as a dict (mean_psnr, mean_ssim, frames, ...); "
-      "fit_poses > 0: each image's pose fitted to it first (test-time pose optimisation)");
+      "fit_poses > 0: each image's pose fitted to it first (test-time pose optimisation); mesh=True: a Gaussian "
+      "avatar's baked mesh (`avatar export --mesh`) scored instead of its Gaussians");
   m.def(
       "render_avatar",
       [](const std::string& run, const torch::Tensor& bones, const torch::Tensor& intrinsic,

@@ -195,6 +195,16 @@ def test_gaussian_avatars_train_evaluate_render_and_export(tmp_path):
     assert document["accessors"][document["animations"][0]["samplers"][0]["input"]]["count"] == len(bones)
     with pytest.raises(fskin.Error, match="avatar.obj"):
         fskin.export_avatar(run, str(tmp_path / "avatar.obj"))
+    # The Gaussians baked into the character's mesh: a skinned triangle mesh with vertex colours.
+    fskin.export_avatar(run, str(tmp_path / "baked.glb"), bones=torch.from_numpy(bones), mesh=True, subdivisions=1)
+    glb = (tmp_path / "baked.glb").read_bytes()
+    document = json.loads(glb[20:20 + int.from_bytes(glb[12:16], "little")])
+    primitive = document["meshes"][0]["primitives"][0]
+    assert primitive.get("mode", 4) == 4 and "COLOR_0" in primitive["attributes"]
+    assert "extensionsUsed" not in document and len(document["skins"]) == 1
+    with pytest.raises(fskin.Error, match="baked.ply.*glTF"):
+        fskin.export_avatar(run, str(tmp_path / "baked.ply"), mesh=True)
+    assert fskin.evaluate_avatar(run, split="train", max_images=1, mesh=True)["mean_psnr"] > 10
     assert fskin.evaluate_avatar(run, split="novel_pose", max_images=1, fit_poses=2)["pose_fitting_steps"] == 2
     # Noisy poses refined while training, and shading by a learned lighting of the posed normal.
     fskin.perturb_poses(str(tmp_path / "images"), str(tmp_path / "noisy"), degrees=5.0)

@@ -27,6 +27,7 @@
 #include "fskin/engine/stop_signal.h"
 #include "fskin/gaussians/gaussian_config.h"
 #include "fskin/gaussians/gaussian_evaluation.h"
+#include "fskin/gaussians/gaussian_baking.h"
 #include "fskin/gaussians/gaussian_export.h"
 #include "fskin/gaussians/gaussian_training.h"
 #include "fskin/util/atomic_file.h"
@@ -78,15 +79,27 @@ struct RenderableAvatar {
   std::function<Eigen::Vector3d(const torch::Tensor& bones)> centre;
 };
 
-RenderableAvatar load_renderable(const std::string& run) {
+// mesh: a Gaussian run drawn as the mesh `avatar export --mesh` writes.
+RenderableAvatar load_renderable(const std::string& run, bool mesh) {
   RenderableAvatar out;
+  FSKIN_CHECK(!mesh || is_gaussian_avatar_run(run),
+              "{}: --mesh draws a Gaussian avatar's baked mesh; this is a volume avatar", run);
   if (is_gaussian_avatar_run(run)) {
     auto trained = std::make_shared<TrainedGaussianAvatar>(TrainedGaussianAvatar::load(run));
     out.data_dir = trained->options.data_dir;
-    out.render = [trained](const torch::Tensor& bones, const torch::Tensor&, const PinholeCamera& camera,
+    if (mesh) {
+      const auto baked = std::make_shared<RiggedMesh>(
+          baked_gaussian_mesh(*trained->avatar, ImageDataset(trained->options.data_dir).character()));
+      out.render = [baked](const torch::Tensor& bones, const torch::Tensor&, const PinholeCamera& camera,
                            const std::array<double, 3>& background) {
-      return trained->render(bones, camera, background).first;
-    };
+        return render_baked_mesh(*baked, bones, camera, background);
+      };
+    } else {
+      out.render = [trained](const torch::Tensor& bones, const torch::Tensor&, const PinholeCamera& camera,
+                             const std::array<double, 3>& background) {
+        return trained->render(bones, camera, background).first;
+      };
+    }
     out.bones_for = [trained](const torch::Tensor& given) { return trained->bones_for(given); };
     out.appearance_for = [](const torch::Tensor&) { return torch::Tensor(); };
     out.centre = [trained](const torch::Tensor& bones) {
@@ -222,8 +235,8 @@ void register_avatar(CLI::App& app) {
   // ---- eval
   struct EvalOptions {
     std::string run, data, split = "novel_view", json;
-    int64_t max_images = 0, fit_poses = 0;
-    bool quiet = false;
+    int64_t max_images = 0, fit_poses = 0, subdivisions = -1;
+    bool quiet = false, mesh = false;
   };
   auto eval = std::make_shared<EvalOptions>();
   auto* e = cmd->add_subcommand("eval", "PSNR and SSIM of the avatar's renders against a split of its dataset");
@@ -237,18 +250,36 @@ void register_avatar(CLI::App& app) {
                  "fit each image's pose to it first with this many steps (test-time pose optimisation, the avatar "
                  "frozen; scores then measure the avatar given the best pose per image)")
       ->check(CLI::NonNegativeNumber);
+  e->add_flag("--mesh", eval->mesh,
+              "a Gaussian avatar: score the mesh `avatar export --mesh` writes (the Gaussians' colours baked into the "
+              "character's subdivided mesh) instead of the Gaussians");
+  e->add_option("--subdivisions", eval->subdivisions, "with --mesh: as avatar export's")
+      ->check(CLI::Range(int64_t{-1}, int64_t{4}));
   e->add_flag("--quiet", eval->quiet, "no progress bar");
-  e->callback([eval] {
+  e->callback([e, eval] {
     PoseFittingOptions fitting;
     fitting.steps = eval->fit_poses;
     const bool gaussians = is_gaussian_avatar_run(eval->run);
-    const auto scores =
-        gaussians
-            ? evaluate_gaussian_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet, fitting)
-            : evaluate_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet, fitting);
+    FSKIN_CHECK(eval->mesh || e->count("--subdivisions") == 0, "--subdivisions applies with --mesh");
+    FSKIN_CHECK(!eval->mesh || gaussians, "{}: --mesh scores a Gaussian avatar's baked mesh; this is a volume avatar",
+                eval->run);
+    FSKIN_CHECK(!eval->mesh || eval->fit_poses == 0, "--fit-poses fits the Gaussians' poses; it does not apply with --mesh");
+    AvatarEvaluation scores;
+    if (eval->mesh) {
+      GaussianBakingOptions baking;
+      baking.subdivisions = eval->subdivisions;
+      scores = evaluate_baked_gaussian_mesh(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet, baking);
+    } else {
+      scores = gaussians
+                   ? evaluate_gaussian_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet,
+                                                  fitting)
+                   : evaluate_avatar_run(eval->run, eval->data, eval->split, eval->max_images, !eval->quiet, fitting);
+    }
     std::printf("%s", scores.to_table().c_str());
     const std::string json =
-        eval->json.empty() ? (fs::path(eval->run) / fmt::format("eval_{}.json", eval->split)).string() : eval->json;
+        eval->json.empty()
+            ? (fs::path(eval->run) / fmt::format(eval->mesh ? "eval_mesh_{}.json" : "eval_{}.json", eval->split)).string()
+            : eval->json;
     write_file_atomically(json, scores.to_json());
     std::printf("wrote %s\n", json.c_str());
   });
@@ -276,7 +307,7 @@ void register_avatar(CLI::App& app) {
   struct RenderOptions {
     std::string run, data, split = "novel_pose", index = "0", out, poses, bones, model, cameras;
     int64_t pose_index = 0, camera_index = 0;
-    bool compare = false, animation = false;
+    bool compare = false, animation = false, mesh = false;
     int turntable = 0;
   };
   auto render = std::make_shared<RenderOptions>();
@@ -306,9 +337,12 @@ void register_avatar(CLI::App& app) {
   r->add_option("--cameras", render->cameras, "instead of the split's camera: a cameras.npz (OpenCV convention)")
       ->check(CLI::ExistingFile);
   r->add_option("--camera-index", render->camera_index, "camera of --cameras")->check(CLI::NonNegativeNumber);
+  r->add_flag("--mesh", render->mesh,
+              "a Gaussian avatar drawn as the mesh `avatar export --mesh` writes (its colours baked into the "
+              "character's subdivided mesh)");
   r->add_option("--out", render->out, "PNG file (or directory with --turntable)")->required();
   r->callback([render] {
-    const auto avatar = load_renderable(render->run);
+    const auto avatar = load_renderable(render->run, render->mesh);
     const ImageDataset data(render->data.empty() ? avatar.data_dir : render->data);
     const auto split = data.load_split(render->split);
     const auto indices = parse_indices(render->index, split.size(), render->split);
@@ -396,8 +430,9 @@ void register_avatar(CLI::App& app) {
   // ---- export
   struct ExportOptions {
     std::string run, data, split, bones, out;
-    int64_t resolution = 128, influences = 4;
+    int64_t resolution = 128, influences = 4, subdivisions = -1;
     double fps = 30;
+    bool mesh = false;
   };
   auto exported = std::make_shared<ExportOptions>();
   auto* x = cmd->add_subcommand("export", "The avatar as a rigged glTF character (.glb/.gltf): its coloured surface "
@@ -417,9 +452,44 @@ void register_avatar(CLI::App& app) {
   x->add_option("--influences", exported->influences,
                 "largest weights kept per vertex or Gaussian (4: what every engine reads; 0: all)")
       ->check(CLI::NonNegativeNumber);
+  x->add_flag("--mesh", exported->mesh,
+              "a Gaussian avatar as a rigged mesh (.glb/.gltf) for engines that draw no Gaussians: the character's "
+              "mesh, subdivided, with the Gaussians' colours baked into its vertices");
+  x->add_option("--subdivisions", exported->subdivisions,
+                "with --mesh: midpoint subdivisions of the character's mesh (-1: the fewest that give at least as "
+                "many vertices as Gaussians)")
+      ->check(CLI::Range(int64_t{-1}, int64_t{4}));
   x->callback([x, exported] {
     FSKIN_CHECK(exported->split.empty() || exported->bones.empty(), "give --split or --bones, not both");
     const auto extension = fs::path(exported->out).extension().string();
+    FSKIN_CHECK(exported->mesh || x->count("--subdivisions") == 0, "--subdivisions applies with --mesh");
+    if (exported->mesh) {
+      FSKIN_CHECK(is_gaussian_avatar_run(exported->run),
+                  "{}: --mesh bakes a Gaussian avatar into a mesh; a volume avatar's export is a mesh already",
+                  exported->run);
+      FSKIN_CHECK(x->count("--resolution") == 0, "--resolution applies to the volume avatar's surface, not to --mesh");
+      auto trained = TrainedGaussianAvatar::load(exported->run);
+      const ImageDataset data(exported->data.empty() ? trained.options.data_dir : exported->data);
+      GaussianExportOptions file;
+      if (!exported->split.empty()) file.bones = data.load_split(exported->split).bone_transforms;
+      if (!exported->bones.empty()) file.bones = load_bone_transforms(exported->bones, data.character().num_joints());
+      file.fps = exported->fps;
+      file.influences = exported->influences;
+      GaussianBakingOptions baking;
+      baking.subdivisions = exported->subdivisions;
+      const auto vertices = write_gaussian_mesh_file(exported->out, *trained.avatar, data.character(), file, baking);
+      if (trained.avatar->options().non_rigid) {
+        std::printf("note: the avatar's non-rigid offsets depend on the pose and are not in the file\n");
+      }
+      if (trained.avatar->shading()) {
+        std::printf("note: the avatar's learned lighting is not in the file: its colours are the albedo\n");
+      }
+      std::printf("wrote %s (%lld vertices with colours baked from %lld Gaussians, %lld joints%s)\n",
+                  exported->out.c_str(), static_cast<long long>(vertices), static_cast<long long>(trained.avatar->size()),
+                  static_cast<long long>(data.character().num_joints()),
+                  file.bones.defined() ? fmt::format(", an animation of {} poses", file.bones.size(0)).c_str() : "");
+      return;
+    }
     if (is_gaussian_avatar_run(exported->run)) {
       // The Gaussians themselves: 3DGS's PLY layout plus weights, skeleton and animation, or a skinned
       // glTF with the Khronos Gaussian-splatting extension.

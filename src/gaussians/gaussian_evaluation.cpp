@@ -31,4 +31,20 @@ AvatarEvaluation evaluate_gaussian_avatar_run(const std::string& run_dir, const 
   return scores;
 }
 
+AvatarEvaluation evaluate_baked_gaussian_mesh(const std::string& run_dir, const std::string& data_dir,
+                                              const std::string& split, int64_t max_images, bool progress,
+                                              const GaussianBakingOptions& baking) {
+  auto trained = TrainedGaussianAvatar::load(run_dir);
+  const ImageDataset data(data_dir.empty() ? trained.options.data_dir : data_dir);
+  const auto baked = baked_gaussian_mesh(*trained.avatar, data.character(), baking);
+  const FrameRenderer render = [&](const FrameInputs& inputs, const PinholeCamera& camera,
+                                   const std::array<double, 3>& background) {
+    return render_baked_mesh(baked, inputs.bones, camera, background);
+  };
+  const FrameInputsOf inputs_of = [&](const ImageSplit& images, int64_t i) {
+    return FrameInputs{trained.bones_for(images.bone_transforms[i]), {}};
+  };
+  return evaluate_renders(render, data, split, max_images, progress, inputs_of);
+}
+
 }  // namespace fskin

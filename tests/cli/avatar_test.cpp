@@ -213,6 +213,27 @@ TEST_F(AvatarCommands, GaussianAvatarsTrainEvaluateAndRender) {
   EXPECT_NE(log().find("gs.obj: a Gaussian avatar is written as a 3DGS .ply or a glTF"), std::string::npos) << log();
   ASSERT_NE(run_cli("avatar export " + run + " --influences 4 --out " + path("gs2.ply")), 0);
   EXPECT_NE(log().find("--influences applies to glTF"), std::string::npos) << log();
+  // The Gaussians baked into the character's mesh: a skinned, vertex-coloured glTF, and its scores.
+  ASSERT_EQ(run_cli("avatar export " + run + " --mesh --subdivisions 1 --split train --out " + path("baked.glb")), 0)
+      << log();
+  EXPECT_NE(log().find("vertices with colours baked from"), std::string::npos) << log();
+  const auto baked = read_file(path("baked.glb"));
+  EXPECT_EQ(baked.rfind("glTF", 0), 0u);
+  EXPECT_NE(baked.find("COLOR_0"), std::string::npos);
+  EXPECT_NE(baked.find("JOINTS_0"), std::string::npos);
+  EXPECT_EQ(baked.find("KHR_gaussian_splatting"), std::string::npos);
+  ASSERT_EQ(run_cli("avatar render " + run + " --mesh --split train --index 0 --compare --out " + path("baked.png")), 0)
+      << log();
+  EXPECT_EQ(read_png(path("baked.png")).width, 64);
+  ASSERT_EQ(run_cli("avatar eval " + run + " --mesh --split novel_pose --quiet"), 0) << log();
+  const auto mesh_scores = nlohmann::json::parse(read_file(run + "/eval_mesh_novel_pose.json"));
+  EXPECT_GT(mesh_scores.at("mean_psnr").get<double>(), 10.0);
+  ASSERT_NE(run_cli("avatar export " + run + " --mesh --out " + path("baked.ply")), 0);
+  EXPECT_NE(log().find("baked.ply: the mesh is written as glTF"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar export " + run + " --subdivisions 2 --out " + path("gs3.glb")), 0);
+  EXPECT_NE(log().find("--subdivisions applies with --mesh"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar eval " + run + " --mesh --fit-poses 2"), 0);
+  EXPECT_NE(log().find("--fit-poses fits the Gaussians' poses"), std::string::npos) << log();
   // The volume avatar's options are not the Gaussian avatar's; a volume run is not continued as one.
   ASSERT_NE(run_cli("avatar train --data " + path("images") + " --out " + path("gs2") +
                     " --representation gaussians --rays 64"),
@@ -246,6 +267,12 @@ TEST_F(AvatarCommands, ExportNamesWhatIsWrong) {
   EXPECT_NE(log().find("not both"), std::string::npos) << log();
   ASSERT_NE(run_cli("avatar export " + path("run") + " --split train --out " + path("a.glb")), 0);
   EXPECT_NE(log().find("is the avatar trained?"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar export " + path("run") + " --mesh --out " + path("a.glb")), 0);
+  EXPECT_NE(log().find("a volume avatar's export is a mesh already"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar eval " + path("run") + " --mesh"), 0);
+  EXPECT_NE(log().find("this is a volume avatar"), std::string::npos) << log();
+  ASSERT_NE(run_cli("avatar render " + path("run") + " --mesh --out " + path("a.png")), 0);
+  EXPECT_NE(log().find("draws a Gaussian avatar's baked mesh; this is a volume avatar"), std::string::npos) << log();
 }
 
 TEST_F(AvatarCommands, TrainingAgainNeedsResume) {

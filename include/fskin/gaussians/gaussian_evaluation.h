@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <string>
 
+#include "fskin/gaussians/gaussian_baking.h"
 #include "fskin/radiance/avatar_evaluation.h"
 #include "fskin/radiance/pose_fitting.h"
 
@@ -17,5 +18,15 @@ namespace fskin {
 AvatarEvaluation evaluate_gaussian_avatar_run(const std::string& run_dir, const std::string& data_dir,
                                               const std::string& split, int64_t max_images = 0, bool progress = true,
                                               const PoseFittingOptions& fitting = {});
+
+// The same scores for the mesh `fskin avatar export RUN --mesh` writes
+// (gaussian_baking.h): the character's subdivided mesh with the colours baked
+// from the Gaussians (8-bit, as in the file), posed by linear blend skinning
+// with its weights and drawn by fskin's mesh rasteriser (export/render.h,
+// 3 x 3 samples per pixel, the colours interpolated across faces, unlit).
+// Training poses' images use the run's refined bones, as above.
+AvatarEvaluation evaluate_baked_gaussian_mesh(const std::string& run_dir, const std::string& data_dir,
+                                              const std::string& split, int64_t max_images = 0, bool progress = true,
+                                              const GaussianBakingOptions& baking = {});
 
 }  // namespace fskin
