@@ -63,7 +63,11 @@ BakedSurface bake_gaussians_at(GaussianAvatarImpl& avatar, const torch::Tensor& 
     const int64_t c = std::min(kChunk, m - start);
     const auto p = points.narrow(0, start, c).to(torch::kFloat64);
     auto normal = normals.narrow(0, start, c).to(torch::kFloat64);
-    normal = normal / normal.norm(2, 1, true).clamp_min(1e-30);
+    // A vertex where opposite faces meet (the rim of a zero-thickness fin) has
+    // no normal: it takes its nearest Gaussian's colour.
+    const auto length = normal.norm(2, 1, true);
+    const auto has_normal = length > 1e-6;  // [c, 1]
+    normal = normal / length.clamp_min(1e-30);
     const auto d = -normal;                   // [c, 3], the ray's direction
     const auto origin = p + height * normal;  // above the layer
     // [c, k], nearest first.
@@ -80,7 +84,8 @@ BakedSurface bake_gaussians_at(GaussianAvatarImpl& avatar, const torch::Tensor& 
     const auto power = (-0.5 * (qq - b * b / a)).clamp_max(0.0);
     auto alpha = (opacities.index_select(0, flat).view({c, k}) * torch::exp(power)).clamp_max(0.99);
     // As the rasteriser: under 1/255 a Gaussian adds nothing; only the layer below the origin counts.
-    alpha = torch::where((alpha < 1.0 / 255) | (t < 0) | (t > 2 * height), torch::zeros_like(alpha), alpha);
+    alpha = torch::where((alpha < 1.0 / 255) | (t < 0) | (t > 2 * height) | has_normal.logical_not(),
+                         torch::zeros_like(alpha), alpha);
     const auto colors = spherical_harmonics_color(sh.index_select(0, flat), dk.reshape({-1, 3})).view({c, k, 3});
     // Front to back along the ray.
     const auto order = std::get<1>(t.sort(1));

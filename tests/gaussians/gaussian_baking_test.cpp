@@ -83,7 +83,7 @@ TEST(GaussianBaking, ACoveringLayerHidesTheOneBeneath) {
   EXPECT_LT(colors.select(1, 2).median().item<double>(), 0.2);
 }
 
-TEST(GaussianBaking, UncoveredPointsTakeTheirNearestGaussiansColour) {
+TEST(GaussianBaking, UncoveredPointsAndPointsWithoutANormalTakeTheirNearestGaussiansColour) {
   auto avatar = avatar_of(500);
   const auto colors = torch::rand({500, 3});
   paint(*avatar, colors, -10.0);  // opacity 4.5e-5: under the rasteriser's 1/255 everywhere
@@ -92,6 +92,11 @@ TEST(GaussianBaking, UncoveredPointsTakeTheirNearestGaussiansColour) {
   EXPECT_EQ(baked.coverage.max().item<float>(), 0.0f);
   const auto nearest = torch::cdist(mesh.vertices.to(torch::kFloat32), avatar->means().detach()).argmin(1);
   EXPECT_TRUE(torch::allclose(baked.colors, colors.index_select(0, nearest), 0, 1e-5));
+  // So do points without a normal (where opposite faces meet), however opaque the Gaussians.
+  paint(*avatar, colors, 4.0);
+  const auto no_normal = bake_gaussians_at(*avatar, mesh.vertices, torch::zeros({mesh.num_vertices(), 3}));
+  EXPECT_EQ(no_normal.coverage.max().item<float>(), 0.0f);
+  EXPECT_TRUE(torch::allclose(no_normal.colors, colors.index_select(0, nearest), 0, 1e-5));
 }
 
 TEST(GaussianBaking, TheMeshIsTheCharactersSubdividedWithTheRigsWeights) {

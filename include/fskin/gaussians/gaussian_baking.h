@@ -18,7 +18,8 @@
 // c_i the Gaussian's spherical harmonics seen along d, divided by the
 // coverage so that no background mixes in. Only Gaussians met within
 // 2 h of o take part (the body's far side stays out); a point no Gaussian
-// covers takes its nearest Gaussian's colour. An avatar trained with
+// covers, or without a normal (zero: where opposite faces meet), takes its
+// nearest Gaussian's colour. An avatar trained with
 // learned skinning corrections has its weights blended the same way (the
 // rig's own weights otherwise, which the Gaussians carry unchanged). Shading
 // (gaussian_shading.h) is left out, as in every export: the colours are the
