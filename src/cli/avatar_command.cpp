@@ -463,38 +463,15 @@ void register_avatar(CLI::App& app) {
     FSKIN_CHECK(exported->split.empty() || exported->bones.empty(), "give --split or --bones, not both");
     const auto extension = fs::path(exported->out).extension().string();
     FSKIN_CHECK(exported->mesh || x->count("--subdivisions") == 0, "--subdivisions applies with --mesh");
-    if (exported->mesh) {
-      FSKIN_CHECK(is_gaussian_avatar_run(exported->run),
-                  "{}: --mesh bakes a Gaussian avatar into a mesh; a volume avatar's export is a mesh already",
-                  exported->run);
-      FSKIN_CHECK(x->count("--resolution") == 0, "--resolution applies to the volume avatar's surface, not to --mesh");
-      auto trained = TrainedGaussianAvatar::load(exported->run);
-      const ImageDataset data(exported->data.empty() ? trained.options.data_dir : exported->data);
-      GaussianExportOptions file;
-      if (!exported->split.empty()) file.bones = data.load_split(exported->split).bone_transforms;
-      if (!exported->bones.empty()) file.bones = load_bone_transforms(exported->bones, data.character().num_joints());
-      file.fps = exported->fps;
-      file.influences = exported->influences;
-      GaussianBakingOptions baking;
-      baking.subdivisions = exported->subdivisions;
-      const auto vertices = write_gaussian_mesh_file(exported->out, *trained.avatar, data.character(), file, baking);
-      if (trained.avatar->options().non_rigid) {
-        std::printf("note: the avatar's non-rigid offsets depend on the pose and are not in the file\n");
-      }
-      if (trained.avatar->shading()) {
-        std::printf("note: the avatar's learned lighting is not in the file: its colours are the albedo\n");
-      }
-      std::printf("wrote %s (%lld vertices with colours baked from %lld Gaussians, %lld joints%s)\n",
-                  exported->out.c_str(), static_cast<long long>(vertices), static_cast<long long>(trained.avatar->size()),
-                  static_cast<long long>(data.character().num_joints()),
-                  file.bones.defined() ? fmt::format(", an animation of {} poses", file.bones.size(0)).c_str() : "");
-      return;
-    }
+    FSKIN_CHECK(!exported->mesh || is_gaussian_avatar_run(exported->run),
+                "{}: --mesh bakes a Gaussian avatar into a mesh; a volume avatar's export is a mesh already",
+                exported->run);
     if (is_gaussian_avatar_run(exported->run)) {
       // The Gaussians themselves: 3DGS's PLY layout plus weights, skeleton and animation, or a skinned
-      // glTF with the Khronos Gaussian-splatting extension.
+      // glTF with the Khronos Gaussian-splatting extension; with --mesh, the character's mesh with
+      // their colours baked into its vertices, a skinned glTF.
       FSKIN_CHECK(x->count("--resolution") == 0, "--resolution applies to the volume avatar's surface, not to Gaussians");
-      FSKIN_CHECK(extension != ".ply" || x->count("--influences") == 0,
+      FSKIN_CHECK(exported->mesh || extension != ".ply" || x->count("--influences") == 0,
                   "--influences applies to glTF; the .ply keeps every joint's weight");
       auto trained = TrainedGaussianAvatar::load(exported->run);
       const ImageDataset data(exported->data.empty() ? trained.options.data_dir : exported->data);
@@ -503,18 +480,27 @@ void register_avatar(CLI::App& app) {
       if (!exported->bones.empty()) file.bones = load_bone_transforms(exported->bones, data.character().num_joints());
       file.fps = exported->fps;
       file.influences = exported->influences;
-      write_gaussian_avatar_file(exported->out, *trained.avatar, data.character().skeleton, file);
+      const auto gaussians = static_cast<long long>(trained.avatar->size());
+      std::string written;
+      if (exported->mesh) {
+        GaussianBakingOptions baking;
+        baking.subdivisions = exported->subdivisions;
+        const auto vertices = write_gaussian_mesh_file(exported->out, *trained.avatar, data.character(), file, baking);
+        written = fmt::format("{} vertices with colours baked from {} Gaussians", vertices, gaussians);
+      } else {
+        write_gaussian_avatar_file(exported->out, *trained.avatar, data.character().skeleton, file);
+        written = fmt::format("{} Gaussians", gaussians);
+      }
       if (trained.avatar->options().non_rigid) {
         std::printf("note: the avatar's non-rigid offsets depend on the pose and are not in the file: players "
-                    "pose its Gaussians by skinning alone\n");
+                    "pose it by skinning alone\n");
       }
       if (trained.avatar->shading()) {
         std::printf("note: the avatar's learned lighting is not in the file: its colours are the albedo, for the "
                     "player's own lights to shade\n");
       }
       const auto& bones = file.bones;
-      std::printf("wrote %s (%lld Gaussians, %lld joints%s)\n", exported->out.c_str(),
-                  static_cast<long long>(trained.avatar->size()),
+      std::printf("wrote %s (%s, %lld joints%s)\n", exported->out.c_str(), written.c_str(),
                   static_cast<long long>(data.character().num_joints()),
                   bones.defined() ? fmt::format(", an animation of {} poses", bones.size(0)).c_str() : "");
       return;
