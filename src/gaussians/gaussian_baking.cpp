@@ -116,9 +116,9 @@ RiggedMesh baked_gaussian_mesh(GaussianAvatarImpl& avatar, const RiggedMesh& cha
                                const GaussianBakingOptions& options) {
   options.validate();
   character.validate("gaussian baking: character");
-  FSKIN_CHECK(character.weights.size(1) == avatar.skinning_weights().size(1),
-              "gaussian baking: the character has {} joints, the avatar {}", character.weights.size(1),
-              avatar.skinning_weights().size(1));
+  const int64_t avatar_joints = avatar.skinning_weights().size(1);
+  FSKIN_CHECK(character.weights.size(1) == avatar_joints, "gaussian baking: the character has {} joints, the avatar {}",
+              character.weights.size(1), avatar_joints);
   RiggedMesh out;
   out.skeleton = character.skeleton;
   out.mesh = Mesh{character.mesh.vertices.to(torch::kFloat32), character.mesh.faces, {}};
