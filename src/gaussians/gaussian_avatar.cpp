@@ -43,6 +43,8 @@ void GaussianAvatarOptions::validate() const {
               "gaussian avatar: the skinning source must be \"surface\" or \"grid\", got \"{}\"", skinning_source);
   FSKIN_CHECK(skinning_grid_resolution >= 4 && skinning_grid_resolution <= 512,
               "gaussian avatar: skinning grid resolution must be within 4..512, got {}", skinning_grid_resolution);
+  FSKIN_CHECK(dilation >= 0 && dilation <= 10, "gaussian avatar: dilation must be within 0..10 pixels^2, got {}",
+              dilation);
   FSKIN_CHECK(shading == "none" || shading == "irradiance",
               "gaussian avatar: shading must be \"none\" or \"irradiance\", got \"{}\"", shading);
 }
@@ -144,6 +146,7 @@ GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const Pinh
   const auto posed = pose(bones);
   ProjectionOptions projection;
   projection.compensate = options_.antialiased;
+  projection.dilation = options_.dilation;
   const auto projected = project_gaussians(posed.means, posed.covariances, camera, projection);
   // View directions in canonical space: A^T (mean' - eye), normalised.
   const Eigen::Vector3d eye = camera.centre();

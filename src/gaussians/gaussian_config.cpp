@@ -39,6 +39,7 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/model/gaussians/initial_opacity", avatar.initial_opacity),
     FSKIN_GAUSSIAN_FIELD("/model/gaussians/antialiased", avatar.antialiased),
     FSKIN_GAUSSIAN_FIELD("/model/gaussians/initial_thickness", avatar.initial_thickness),
+    FSKIN_GAUSSIAN_FIELD("/model/gaussians/dilation", avatar.dilation),
     FSKIN_GAUSSIAN_FIELD("/model/shading", avatar.shading),
     FSKIN_GAUSSIAN_FIELD("/model/non_rigid/enabled", avatar.non_rigid),
     FSKIN_GAUSSIAN_FIELD("/model/non_rigid/frequencies", avatar.non_rigid_network.frequencies),
@@ -120,6 +121,8 @@ GaussianTrainOptions read_gaussian_run_config(const std::string& path, const std
   // ... those written before disc-shaped starts began with spheres, and pruned by the size alone.
   if (!document.contains(json::json_pointer("/model/gaussians/initial_thickness"))) base.avatar.initial_thickness = 1;
   if (!document.contains(json::json_pointer("/density/max_scale_spacings"))) base.density.max_scale_spacings = 0;
+  // ... those written before the dilation was a key drew with 3DGS's.
+  if (!document.contains(json::json_pointer("/model/gaussians/dilation"))) base.avatar.dilation = 0.3;
   // ... and those written before the surface layer prior kept no anchors.
   if (!document.contains(json::json_pointer("/losses/surface_layer/weight"))) base.layer_weight = 0;
   return gaussian_options_from_document(document, base, path);

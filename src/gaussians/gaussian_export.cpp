@@ -51,6 +51,7 @@ void write_gaussian_ply(const std::string& path, GaussianAvatarImpl& avatar, con
   }
   if (bones.defined()) header << fmt::format("comment fps {}\n", fps);
   if (avatar.options().antialiased) header << "comment antialiased\n";
+  header << fmt::format("comment dilation {}\n", avatar.options().dilation);
   header << "element vertex " << n << "\n";
   for (const char* p : {"x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2"})
     header << "property float " << p << "\n";

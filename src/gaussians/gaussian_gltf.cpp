@@ -80,6 +80,7 @@ void write_gaussian_gltf(const std::string& path, GaussianAvatarImpl& avatar, co
   primitive.extensions[kExtension] = tinygltf::Value(extension);
   tinygltf::Value::Object fskin_extras;
   fskin_extras["antialiased"] = tinygltf::Value(avatar.options().antialiased);
+  fskin_extras["dilation"] = tinygltf::Value(avatar.options().dilation);
   fskin_extras["sh_space"] = tinygltf::Value(std::string("canonical"));
   tinygltf::Value::Object extras;
   extras["fskin"] = tinygltf::Value(fskin_extras);

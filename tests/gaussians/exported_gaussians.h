@@ -19,11 +19,13 @@
 namespace fskin::testing {
 
 // `count` Gaussians on the character with random colours (degree
-// `sh_degree`), scales, rotations and opacities.
+// `sh_degree`), scales, rotations and opacities, drawn with a dilation of
+// neither the default's nor 3DGS's (a reader must take the file's).
 inline GaussianAvatar varied_gaussian_avatar(const RiggedMesh& character, int64_t count, int64_t sh_degree) {
   GaussianAvatarOptions options;
   options.initial_gaussians = count;
   options.sh_degree = sh_degree;
+  options.dilation = 0.2;
   GaussianAvatar avatar(character, options, 3);
   torch::manual_seed(4);
   torch::NoGradGuard no_grad;
@@ -41,11 +43,13 @@ inline GaussianAvatar varied_gaussian_avatar(const RiggedMesh& character, int64_
 struct FileGaussians {
   torch::Tensor means, rotations, scales, opacities, sh, weights;
   bool antialiased = false;
+  double dilation = 0.3;  // pixels^2
 };
 
 // T = sum_j w_j B_j; mean' = T mean; covariance' = A R S S R^T A^T; colour at
 // the view direction mapped back by A^T; opacities times the dilation's
-// compensation when antialiased; over a white background.
+// compensation when antialiased; dilated by the file's dilation; over a
+// white background.
 inline std::tuple<torch::Tensor, torch::Tensor> render_file_gaussians(const FileGaussians& g,
                                                                      const torch::Tensor& bones,
                                                                      const PinholeCamera& camera) {
@@ -57,6 +61,7 @@ inline std::tuple<torch::Tensor, torch::Tensor> render_file_gaussians(const File
       torch::matmul(torch::matmul(linear, torch::matmul(rs, rs.transpose(1, 2))), linear.transpose(1, 2));
   ProjectionOptions projection;
   projection.compensate = g.antialiased;
+  projection.dilation = g.dilation;
   const auto projected = project_gaussians(posed_means, covariances, camera, projection);
   const Eigen::Vector3d eye = camera.centre();
   const auto eye_tensor = torch::tensor({eye.x(), eye.y(), eye.z()}).to(torch::kFloat32);

@@ -134,8 +134,13 @@ TEST(GaussianExport, ThePlyPosedWithItsOwnWeightsRendersAsTheAvatar) {
     const bool antialiased =
         std::find(ply.comments.begin(), ply.comments.end(), "antialiased") != ply.comments.end();
     EXPECT_EQ(antialiased, avatar->options().antialiased);
-    const testing::FileGaussians file{means, quaternion_to_matrix(rotations / rotations.norm(2, 1, true)), scales,
-                                      opacities, sh, weights, antialiased};
+    const auto dilation_line = std::find_if(ply.comments.begin(), ply.comments.end(),
+                                            [](const std::string& c) { return c.rfind("dilation ", 0) == 0; });
+    ASSERT_NE(dilation_line, ply.comments.end());
+    const double dilation = std::stod(dilation_line->substr(9));
+    EXPECT_EQ(dilation, avatar->options().dilation);
+    const testing::FileGaussians file{means, quaternion_to_matrix(rotations / rotations.norm(2, 1, true)),
+                                      scales, opacities, sh, weights, antialiased, dilation};
     SCOPED_TRACE("frame " + std::to_string(frame));
     testing::expect_renders_as_avatar(file, animation[frame], *avatar, bones[frame], camera, 1e-3);
   }

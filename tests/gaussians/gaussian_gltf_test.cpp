@@ -111,6 +111,8 @@ TEST(GaussianGltf, TheFilePosedWithItsOwnSkinRendersAsTheAvatar) {
   EXPECT_EQ(extension.Get("colorSpace").Get<std::string>(), "srgb_rec709_display");
   const bool antialiased = primitive.extras.Get("fskin").Get("antialiased").Get<bool>();
   EXPECT_EQ(antialiased, avatar->options().antialiased);
+  const double dilation = primitive.extras.Get("fskin").Get("dilation").GetNumberAsDouble();
+  EXPECT_EQ(dilation, avatar->options().dilation);
   const auto attribute = [&](const std::string& name) {
     EXPECT_TRUE(primitive.attributes.count(name)) << name;
     return read_accessor(model, primitive.attributes.at(name)).to(torch::kFloat32);
@@ -149,7 +151,7 @@ TEST(GaussianGltf, TheFilePosedWithItsOwnSkinRendersAsTheAvatar) {
     const auto bones = skinning_matrices(model, frame).to(torch::kFloat32);
     EXPECT_LT((bones - gltf.bones[frame]).abs().max().item<double>(), 1e-4) << "frame " << frame;
     const testing::FileGaussians file{means, rotation_from_xyzw(rotation_xyzw), scales, opacities, sh, weights,
-                                      antialiased};
+                                      antialiased, dilation};
     SCOPED_TRACE("frame " + std::to_string(frame));
     testing::expect_renders_as_avatar(file, bones, *avatar, split.bone_transforms[frame], camera, 2e-3);
   }

@@ -246,6 +246,8 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
                         {"--set model.gaussians.colour=3", "unknown key"});
   testing::expect_error([&] { configure_gaussian_options(base, "", {"model.gaussians.sh_degree=5"}); },
                         {"sh_degree", "0 to 3"});
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"model.gaussians.dilation=-0.1"}); },
+                        {"dilation must be within 0..10"});
   EXPECT_EQ(changed.avatar.skinning_source, "surface");
   testing::expect_error([&] { configure_gaussian_options(base, "", {"model.skinning.source=bones"}); },
                         {"--set model.skinning.source=bones", "\"surface\" or \"grid\""});
@@ -256,6 +258,7 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   old_document["model"]["skinning"].erase("source");
   old_document["model"]["gaussians"].erase("antialiased");
   old_document["model"]["gaussians"].erase("initial_thickness");
+  old_document["model"]["gaussians"].erase("dilation");
   old_document["density"].erase("max_scale_spacings");
   old_document["losses"].erase("surface_layer");
   std::ofstream(dir / "run.json") << old_document.dump();
@@ -263,6 +266,8 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   EXPECT_EQ(old.skinning_source, "grid");
   EXPECT_FALSE(old.antialiased);
   EXPECT_EQ(old.initial_thickness, 1.0);
+  EXPECT_EQ(old.dilation, 0.3);  // 3DGS's, before the key
+  EXPECT_EQ(changed.avatar.dilation, 0.1);
   EXPECT_EQ(read_gaussian_run_config((dir / "run.json").string(), dir.string()).density.max_scale_spacings, 0.0);
   // ... and without the surface layer prior, whose anchors its checkpoints lack.
   const auto old_options = read_gaussian_run_config((dir / "run.json").string(), dir.string());

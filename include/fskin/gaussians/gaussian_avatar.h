@@ -59,6 +59,12 @@ struct GaussianAvatarOptions {
   // Opacities scaled by the projection's compensation of its dilation
   // (gaussian_projection.h): footprints keep their weight from any distance.
   bool antialiased = true;
+  // The screen-space dilation added to every projected footprint, pixels^2
+  // (gaussian_projection.h). 0.1, Mip-Splatting's 2-D filter (with the
+  // compensation above), rather than 3DGS's 0.3: the wider blur softens
+  // detail finer than a few pixels and the thin parts of a small picture
+  // (docs/benchmarks.md, "Gaussian avatars").
+  double dilation = 0.1;
   // A pose-conditioned offset of the means before skinning
   // (gaussians/non_rigid_offset.h); off: the Gaussians move rigidly with
   // their blended bones.

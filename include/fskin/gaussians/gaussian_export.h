@@ -13,6 +13,8 @@
 //   `comment antialiased`       the avatar was trained with opacities scaled
 //                               by the dilation's compensation
 //                               (gaussian_projection.h), as its renders are
+//   `comment dilation <d>`      the screen-space dilation its footprints are
+//                               drawn with, pixels^2 (3DGS viewers: 0.3)
 // A reader poses Gaussian i in a frame as fskin does: T = sum_j w_ij B_j,
 // mean' = T mean, covariance' = A R S S R^T A^T (A: T's 3 x 3 part). An
 // avatar's non-rigid offsets (non_rigid_offset.h) depend on the pose through

@@ -23,8 +23,8 @@
 // at the view direction mapped back by A^T. The primitive's
 // extras.fskin.antialiased says whether opacities are to be multiplied by
 // the dilation's compensation (gaussians/gaussian_projection.h) as the
-// avatar was trained; players without it draw small Gaussians slightly more
-// opaque.
+// avatar was trained, extras.fskin.dilation the dilation in pixels^2;
+// players without them draw small Gaussians slightly more opaque and wider.
 #include <torch/types.h>
 
 #include <string>

@@ -4,8 +4,8 @@
 // approximation of the pinhole projection (Zwicker et al. 2002; 3DGS, Kerbl et
 // al. 2023, eq. 5): Sigma' = J W Sigma W^T J^T, with W the camera's rotation
 // and J the projection's Jacobian at the Gaussian's mean, plus a screen-space
-// dilation (0.3 pixel^2, as 3DGS) so that no footprint is thinner than about
-// a pixel.
+// dilation (0.3 pixel^2 by default, as 3DGS; the Gaussian avatar draws with
+// its own, 0.1) so that no footprint is thinner than about a pixel.
 //
 // The dilation widens small footprints: a Gaussian under a pixel wide, fitted
 // from near cameras, draws a thicker and more opaque rim from far ones (the
