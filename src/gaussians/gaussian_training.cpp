@@ -18,6 +18,7 @@
 #include "fskin/engine/trainer.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/gaussians/gaussian_config.h"
+#include "fskin/gaussians/opacity_prior.h"
 #include "fskin/gaussians/surface_layer.h"
 #include "fskin/radiance/avatar_character.h"
 #include "fskin/radiance/image_dataset.h"
@@ -72,6 +73,8 @@ void GaussianTrainOptions::validate() const {
               "gaussian avatar train: losses.non_rigid.weight must be >= 0, got {}", non_rigid_weight);
   FSKIN_CHECK(std::isfinite(layer_weight) && layer_weight >= 0,
               "gaussian avatar train: losses.surface_layer.weight must be >= 0, got {}", layer_weight);
+  FSKIN_CHECK(std::isfinite(opacity_weight) && opacity_weight >= 0,
+              "gaussian avatar train: losses.opacity.weight must be >= 0, got {}", opacity_weight);
   FSKIN_CHECK(std::isfinite(pose_regularizer) && pose_regularizer >= 0,
               "gaussian avatar train: pose_refinement.regularizer must be >= 0, got {}", pose_regularizer);
   FSKIN_CHECK(pose_first_pass_steps >= 0, "gaussian avatar train: pose_refinement.first_pass_steps must be >= 0, got {}",
@@ -227,6 +230,11 @@ class GaussianTrainable : public Trainable {
       const auto prior = options_.layer_weight * surface_layer_spread(*avatar_);
       out.total = out.total + prior;
       out.terms.emplace_back("layer", prior.detach());
+    }
+    if (options_.opacity_weight > 0) {
+      const auto prior = options_.opacity_weight * opacity_entropy(*avatar_);
+      out.total = out.total + prior;
+      out.terms.emplace_back("opacity", prior.detach());
     }
     if (corrections_) {
       const auto pose_loss = options_.pose_regularizer * corrections_->squared_size({frame_[i]});

@@ -248,6 +248,10 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
                         {"sh_degree", "0 to 3"});
   testing::expect_error([&] { configure_gaussian_options(base, "", {"model.gaussians.dilation=-0.1"}); },
                         {"dilation must be within 0..10"});
+  EXPECT_EQ(base.opacity_weight, 0.0);
+  EXPECT_EQ(configure_gaussian_options(base, "", {"losses.opacity.weight=0.01"}).opacity_weight, 0.01);
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.opacity.weight=-1"}); },
+                        {"losses.opacity.weight must be >= 0"});
   EXPECT_EQ(changed.avatar.skinning_source, "surface");
   testing::expect_error([&] { configure_gaussian_options(base, "", {"model.skinning.source=bones"}); },
                         {"--set model.skinning.source=bones", "\"surface\" or \"grid\""});
