@@ -62,9 +62,8 @@ struct GaussianTrainOptions {
   // seeds; docs/benchmarks.md); 1e-3 and 1e-1 scored 0.1-0.2 dB lower (seed
   // 0), and the inside of the outline loses 0.5 dB at 1e-3, 1 dB at 1e-2.
   double layer_weight = 1e-2;
-  // The opacity prior (gaussians/opacity_prior.h): this weight times the
-  // mean binary entropy of the opacities; 0: none, the default (at 1e-2 the
-  // demo's lit images gain 0.2 dB, its unlit ones lose 0.4 dB).
+  // The opacity prior (gaussians/opacity_prior.h, which says why it is off
+  // by default): this weight times the mean binary entropy of the opacities.
   double opacity_weight = 0;
   // The avatar's options as this training builds it (anchored with the surface layer prior).
   GaussianAvatarOptions avatar_options() const {
