@@ -6,7 +6,15 @@ the squared colour error within 2 pixels of the mask's outline, and the PSNR
 there and inside the mask farther than 2 pixels from it (the interior:
 colour and shading, apart from where the outline lies); over all images, the
 rendered area against the masks' and the share of the squared error on the
-pixels where the outline is misplaced (opacity and mask differ by over 0.25).
+pixels where the outline is misplaced (opacity and mask differ by over 0.25),
+the opacity outside the mask and the mask without opacity per image, and how
+far the truth's colour just inside the outline lies from the background (what
+a misplaced outline costs per pixel);
+and the subject-box PSNR (`avatar eval`'s) split into what the outline and
+what the colour cost: the render, the render's colour over the truth's
+coverage (the mask), and the truth's colour over the render's coverage. The
+colours are the pictures' own, un-composited from the background by the
+opacity or the mask where it exceeds 0.05.
 
     PYTHONPATH=build/python /usr/bin/python3 tools/outline_error.py RUN [--split novel_pose] [--data DIR]
         [--picture sheet.png --images 0,3]
@@ -48,9 +56,13 @@ def main():
     poses = np.load(split / "poses.npz")
     cameras = np.load(split / "cameras.npz")
     width, height = int(cameras["width"]), int(cameras["height"])
+    background = torch.tensor(json.loads((pathlib.Path(data) / "manifest.json").read_text())["background"],
+                              dtype=torch.float32)
+    box_psnr = {"render": [], "true coverage": [], "true colour": []}
     band_error = total_error = interior_error = misplaced_error = 0.0
     band_pixels = interior_pixels = misplaced_pixels = 0
-    rendered_total = mask_total = 0.0
+    rendered_total = mask_total = outside_total = missing_total = contrast_total = 0.0
+    outline_pixels = 0
     print("image  rendered area  mask area  ratio  opacity outside the mask  mask without opacity")
     for i in range(len(poses["bone_transforms"])):
         truth = fskin.read_png(str(split / "images" / f"image_{i:04d}.png")).float() / 255
@@ -71,16 +83,29 @@ def main():
         misplaced = (alpha - mask).abs() > 0.25
         misplaced_error += float(error[misplaced].sum())
         misplaced_pixels += int(misplaced.sum())
+        for name, picture in split_by_cause(truth, rgb, alpha, mask, background).items():
+            box_psnr[name].append(picture_psnr(picture, truth, mask_box(mask)))
         if i in sheet_images:
             sheet_rows.append(sheet_row(truth, rgb, alpha, mask))
         rendered, truth_area = float(alpha.sum()), float(mask.sum())
+        outside, missing = float((alpha - mask).clamp(min=0).sum()), float((mask - alpha).clamp(min=0).sum())
         rendered_total += rendered
         mask_total += truth_area
-        print(f"{i:5d}  {rendered:13.0f}  {truth_area:9.0f}  {rendered / truth_area:5.3f}  "
-              f"{float((alpha - mask).clamp(min=0).sum()):24.0f}  {float((mask - alpha).clamp(min=0).sum()):20.0f}")
+        outside_total += outside
+        missing_total += missing
+        # The truth against the background on the mask's pixels next to an empty one:
+        # what a misplaced outline costs per pixel.
+        outline = (mask > 0.5) & (torch.nn.functional.max_pool2d((mask <= 0.5).float()[None, None], 3, 1, 1)[0, 0] > 0)
+        contrast_total += float((truth - background).square().sum(-1)[outline].sum())
+        outline_pixels += int(outline.sum())
+        print(f"{i:5d}  {rendered:13.0f}  {truth_area:9.0f}  {rendered / truth_area:5.3f}  {outside:24.0f}  {missing:20.0f}")
     print(f"all images: rendered area / mask area {rendered_total / mask_total:.4f}; "
           f"{misplaced_pixels} pixels where opacity and mask differ by over 0.25 hold "
           f"{100 * misplaced_error / total_error:.1f} % of the squared colour error")
+    images = len(poses["bone_transforms"])
+    print(f"per image: opacity outside the mask {outside_total / images:.1f}, mask without opacity "
+          f"{missing_total / images:.1f}; the truth against the background just inside the outline: "
+          f"mean squared difference {contrast_total / max(outline_pixels, 1):.3f} (sum over RGB)")
     print(f"squared colour error within 2 pixels of the outline: {100 * band_error / total_error:.1f} %")
     if args.picture:
         if len(sheet_rows) != len(sheet_images):
@@ -90,6 +115,36 @@ def main():
     psnr = lambda error, pixels: -10 * np.log10(max(error / max(3 * pixels, 1), 1e-12))
     print(f"PSNR within 2 pixels of the outline: {psnr(band_error, band_pixels):.2f} dB; "
           f"inside, farther from it: {psnr(interior_error, interior_pixels):.2f} dB")
+    print("subject-box PSNR: " + "; ".join(f"{name} {np.mean(values):.2f} dB" for name, values in box_psnr.items()))
+
+
+def split_by_cause(truth, rgb, alpha, mask, background):
+    """The render, and two pictures that each keep one of its errors: its colour
+    over the mask's coverage, and the truth's colour over its coverage."""
+    def colour(picture, coverage):
+        c = coverage[..., None]
+        return torch.where(c > 0.05, (picture - (1 - c) * background) / c.clamp(min=1e-3), background)
+    m, a = mask[..., None], alpha[..., None]
+    return {"render": rgb,
+            "true coverage": colour(rgb, alpha) * m + (1 - m) * background,
+            "true colour": colour(truth, mask) * a + (1 - a) * background}
+
+
+def mask_box(mask, grow=0.1):
+    """avatar eval's subject box (radiance/image_dataset.h, mask_box): the mask's
+    box grown by a tenth of its size, as (v0, v1, u0, u1)."""
+    rows, columns = torch.nonzero(mask > 0, as_tuple=True)
+    if len(rows) == 0:
+        return 0, mask.shape[0], 0, mask.shape[1]
+    v0, v1, u0, u1 = int(rows.min()), int(rows.max()) + 1, int(columns.min()), int(columns.max()) + 1
+    gv, gu = int(np.ceil(0.5 * grow * (v1 - v0))), int(np.ceil(0.5 * grow * (u1 - u0)))
+    return max(0, v0 - gv), min(mask.shape[0], v1 + gv), max(0, u0 - gu), min(mask.shape[1], u1 + gu)
+
+
+def picture_psnr(picture, truth, box):
+    v0, v1, u0, u1 = box
+    error = float((picture.clamp(0, 1) - truth)[v0:v1, u0:u1].square().mean())
+    return -10 * np.log10(max(error, 1e-12))
 
 
 def sheet_row(truth, rgb, alpha, mask, margin=4, zoom=3):
