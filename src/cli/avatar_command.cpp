@@ -102,12 +102,7 @@ RenderableAvatar load_renderable(const std::string& run, bool mesh) {
     }
     out.bones_for = [trained](const torch::Tensor& given) { return trained->bones_for(given); };
     out.appearance_for = [](const torch::Tensor&) { return torch::Tensor(); };
-    out.centre = [trained](const torch::Tensor& bones) {
-      torch::NoGradGuard no_grad;
-      const auto means = trained->avatar->pose(bones.to(torch::kFloat32)).means;
-      const auto middle = 0.5 * (std::get<0>(means.min(0)) + std::get<0>(means.max(0)));
-      return Eigen::Vector3d(middle[0].item<double>(), middle[1].item<double>(), middle[2].item<double>());
-    };
+    out.centre = [trained](const torch::Tensor& bones) { return trained->avatar->centre(bones); };
     return out;
   }
   auto trained = std::make_shared<TrainedAvatar>(TrainedAvatar::load(run));

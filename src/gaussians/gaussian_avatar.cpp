@@ -141,6 +141,14 @@ PosedGaussians GaussianAvatarImpl::pose(const torch::Tensor& bones) {
   return posed;
 }
 
+Eigen::Vector3d GaussianAvatarImpl::centre(const torch::Tensor& bones) {
+  torch::NoGradGuard no_grad;
+  const auto means = pose(bones.detach().to(torch::kFloat32)).means;
+  const auto middle = (0.5 * (std::get<0>(means.min(0)) + std::get<0>(means.max(0)))).to(torch::kFloat64).contiguous();
+  const double* m = middle.data_ptr<double>();
+  return {m[0], m[1], m[2]};
+}
+
 GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const PinholeCamera& camera,
                                           const std::array<double, 3>& background) {
   const auto posed = pose(bones);

@@ -69,6 +69,8 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/losses/non_rigid/weight", non_rigid_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/surface_layer/weight", layer_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/opacity/weight", opacity_weight),
+    FSKIN_GAUSSIAN_FIELD("/losses/alpha_entropy/weight", alpha_entropy_weight),
+    FSKIN_GAUSSIAN_FIELD("/losses/alpha_entropy/degrees", alpha_entropy_degrees),
     FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/means", means_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/scales", scales_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/rotations", rotations_learning_rate),

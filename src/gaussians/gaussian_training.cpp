@@ -20,6 +20,7 @@
 #include "fskin/gaussians/gaussian_config.h"
 #include "fskin/gaussians/opacity_prior.h"
 #include "fskin/gaussians/surface_layer.h"
+#include "fskin/gaussians/unseen_view_prior.h"
 #include "fskin/radiance/avatar_character.h"
 #include "fskin/radiance/image_dataset.h"
 #include "fskin/radiance/image_metrics.h"
@@ -75,6 +76,11 @@ void GaussianTrainOptions::validate() const {
               "gaussian avatar train: losses.surface_layer.weight must be >= 0, got {}", layer_weight);
   FSKIN_CHECK(std::isfinite(opacity_weight) && opacity_weight >= 0,
               "gaussian avatar train: losses.opacity.weight must be >= 0, got {}", opacity_weight);
+  FSKIN_CHECK(std::isfinite(alpha_entropy_weight) && alpha_entropy_weight >= 0,
+              "gaussian avatar train: losses.alpha_entropy.weight must be >= 0, got {}", alpha_entropy_weight);
+  FSKIN_CHECK(std::isfinite(alpha_entropy_degrees) && alpha_entropy_degrees >= 0 && alpha_entropy_degrees <= 180,
+              "gaussian avatar train: losses.alpha_entropy.degrees must be within [0, 180], got {}",
+              alpha_entropy_degrees);
   FSKIN_CHECK(std::isfinite(pose_regularizer) && pose_regularizer >= 0,
               "gaussian avatar train: pose_refinement.regularizer must be >= 0, got {}", pose_regularizer);
   FSKIN_CHECK(pose_first_pass_steps >= 0, "gaussian avatar train: pose_refinement.first_pass_steps must be >= 0, got {}",
@@ -236,6 +242,11 @@ class GaussianTrainable : public Trainable {
       out.total = out.total + prior;
       out.terms.emplace_back("opacity", prior.detach());
     }
+    if (options_.alpha_entropy_weight > 0) {
+      const auto prior = options_.alpha_entropy_weight * unseen_view_alpha_entropy(bones.detach(), camera, box);
+      out.total = out.total + prior;
+      out.terms.emplace_back("alpha_entropy", prior.detach());
+    }
     if (corrections_) {
       const auto pose_loss = options_.pose_regularizer * corrections_->squared_size({frame_[i]});
       out.total = out.total + pose_loss;
@@ -266,6 +277,17 @@ class GaussianTrainable : public Trainable {
       statistics_.reset(avatar_->size());
     }
     if (d.opacity_reset_every > 0 && done % d.opacity_reset_every == 0) reset_opacities(*avatar_, adam, 0.01);
+  }
+
+  // The unseen-view prior (gaussians/unseen_view_prior.h) for the step's
+  // bones, camera and box: the unseen view is cut to the same box.
+  torch::Tensor unseen_view_alpha_entropy(const torch::Tensor& bones, const PinholeCamera& camera,
+                                          const std::array<int64_t, 4>& box) {
+    const double max_radians = options_.alpha_entropy_degrees * M_PI / 180;
+    const double radians = (2 * torch::rand({1}, torch::kFloat64).item<double>() - 1) * max_radians;
+    const auto view = unseen_view(camera, radians, avatar_->centre(bones)).cropped(box[0], box[1], box[2], box[3]);
+    const double pixels = static_cast<double>(camera.width) * camera.height;
+    return alpha_entropy_sum(avatar_->render(bones, view, background_).alpha) / pixels;
   }
 
   // The learned pose corrections (null without refine_poses).

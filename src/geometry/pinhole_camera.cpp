@@ -54,9 +54,12 @@ PinholeCamera PinholeCamera::cropped(int64_t u0, int64_t v0, int64_t u1, int64_t
 }
 
 PinholeCamera PinholeCamera::orbited(double radians, const Eigen::Vector3d& pivot) const {
+  return turned(Eigen::Vector3d::UnitY(), radians, pivot);
+}
+
+PinholeCamera PinholeCamera::turned(const Eigen::Vector3d& axis, double radians, const Eigen::Vector3d& pivot) const {
   Eigen::Matrix4d turn = Eigen::Matrix4d::Identity();
-  turn(0, 0) = std::cos(radians), turn(0, 2) = std::sin(radians);
-  turn(2, 0) = -std::sin(radians), turn(2, 2) = std::cos(radians);
+  turn.topLeftCorner<3, 3>() = Eigen::AngleAxisd(radians, axis.normalized()).toRotationMatrix();
   turn.topRightCorner<3, 1>() = pivot - turn.topLeftCorner<3, 3>() * pivot;
   PinholeCamera out = *this;
   out.extrinsic = extrinsic * turn;  // the world turned by `turn`, then seen by this camera

@@ -252,6 +252,15 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   EXPECT_EQ(configure_gaussian_options(base, "", {"losses.opacity.weight=0.01"}).opacity_weight, 0.01);
   testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.opacity.weight=-1"}); },
                         {"losses.opacity.weight must be >= 0"});
+  EXPECT_EQ(base.alpha_entropy_weight, 0.0);
+  const auto unseen = configure_gaussian_options(base, "", {"losses.alpha_entropy.weight=0.1",
+                                                            "losses.alpha_entropy.degrees=30"});
+  EXPECT_EQ(unseen.alpha_entropy_weight, 0.1);
+  EXPECT_EQ(unseen.alpha_entropy_degrees, 30.0);
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.alpha_entropy.weight=-1"}); },
+                        {"losses.alpha_entropy.weight must be >= 0"});
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.alpha_entropy.degrees=200"}); },
+                        {"losses.alpha_entropy.degrees must be within [0, 180]"});
   EXPECT_EQ(changed.avatar.skinning_source, "surface");
   testing::expect_error([&] { configure_gaussian_options(base, "", {"model.skinning.source=bones"}); },
                         {"--set model.skinning.source=bones", "\"surface\" or \"grid\""});

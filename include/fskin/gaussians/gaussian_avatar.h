@@ -131,6 +131,9 @@ class GaussianAvatarImpl : public torch::nn::Module {
   torch::Tensor skinning_weights();
   // The Gaussians in the frame of bones [J, 4, 4] (canonical -> posed).
   PosedGaussians pose(const torch::Tensor& bones);
+  // The middle of the box of the Gaussians' means posed by bones [J, 4, 4]
+  // (a turntable and the unseen-view prior turn the camera about it).
+  Eigen::Vector3d centre(const torch::Tensor& bones);
   // A picture of the posed Gaussians [H, W, 3] and its alpha over a uniform
   // background; differentiable in the parameters (and in bones when they
   // require gradients).

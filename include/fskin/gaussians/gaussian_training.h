@@ -65,6 +65,12 @@ struct GaussianTrainOptions {
   // The opacity prior (gaussians/opacity_prior.h, which says why it is off
   // by default): this weight times the mean binary entropy of the opacities.
   double opacity_weight = 0;
+  // The unseen-view prior (gaussians/unseen_view_prior.h): this weight times
+  // the opacity's binary entropy in a picture of the step's pose from its
+  // camera turned by up to alpha_entropy_degrees; 0: none (one render less
+  // per step).
+  double alpha_entropy_weight = 0;
+  double alpha_entropy_degrees = 45;
   // The avatar's options as this training builds it (anchored with the surface layer prior).
   GaussianAvatarOptions avatar_options() const {
     auto out = avatar;

@@ -40,6 +40,9 @@ struct PinholeCamera {
   // docs/conventions.md) through `pivot`: a turntable's frame k is
   // orbited(2 pi k / n, subject centre).
   PinholeCamera orbited(double radians, const Eigen::Vector3d& pivot) const;
+  // The view of the world turned by `radians` about the unit `axis` through
+  // `pivot` (right-handed): the camera moved the other way round the pivot.
+  PinholeCamera turned(const Eigen::Vector3d& axis, double radians, const Eigen::Vector3d& pivot) const;
   // Throws fskin::Error prefixed with `context` unless sizes are positive,
   // everything is finite, K is upper triangular with positive focal lengths
   // and the rotation part of `extrinsic` is orthonormal with det +1.
