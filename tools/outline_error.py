@@ -98,7 +98,8 @@ def main():
         outline = (mask > 0.5) & (torch.nn.functional.max_pool2d((mask <= 0.5).float()[None, None], 3, 1, 1)[0, 0] > 0)
         contrast_total += float((truth - background).square().sum(-1)[outline].sum())
         outline_pixels += int(outline.sum())
-        print(f"{i:5d}  {rendered:13.0f}  {truth_area:9.0f}  {rendered / truth_area:5.3f}  {outside:24.0f}  {missing:20.0f}")
+        print(f"{i:5d}  {rendered:13.0f}  {truth_area:9.0f}  {rendered / truth_area:5.3f}  "
+              f"{outside:24.0f}  {missing:20.0f}")
     print(f"all images: rendered area / mask area {rendered_total / mask_total:.4f}; "
           f"{misplaced_pixels} pixels where opacity and mask differ by over 0.25 hold "
           f"{100 * misplaced_error / total_error:.1f} % of the squared colour error")
