@@ -141,17 +141,26 @@ PosedGaussians GaussianAvatarImpl::pose(const torch::Tensor& bones) {
   return posed;
 }
 
+Eigen::Vector3d posed_centre(const torch::Tensor& means) {
+  const auto m = means.detach();
+  const auto middle =
+      (0.5 * (std::get<0>(m.min(0)) + std::get<0>(m.max(0)))).to(torch::kCPU, torch::kFloat64).contiguous();
+  const double* c = middle.data_ptr<double>();
+  return {c[0], c[1], c[2]};
+}
+
 Eigen::Vector3d GaussianAvatarImpl::centre(const torch::Tensor& bones) {
   torch::NoGradGuard no_grad;
-  const auto means = pose(bones.detach().to(torch::kFloat32)).means;
-  const auto middle = (0.5 * (std::get<0>(means.min(0)) + std::get<0>(means.max(0)))).to(torch::kFloat64).contiguous();
-  const double* m = middle.data_ptr<double>();
-  return {m[0], m[1], m[2]};
+  return posed_centre(pose(bones.detach().to(torch::kFloat32)).means);
 }
 
 GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const PinholeCamera& camera,
                                           const std::array<double, 3>& background) {
-  const auto posed = pose(bones);
+  return render(pose(bones), camera, background);
+}
+
+GaussianRender GaussianAvatarImpl::render(const PosedGaussians& posed, const PinholeCamera& camera,
+                                          const std::array<double, 3>& background) {
   ProjectionOptions projection;
   projection.compensate = options_.antialiased;
   projection.dilation = options_.dilation;

@@ -206,7 +206,8 @@ class GaussianTrainable : public Trainable {
       corrections_->center();
       bones = corrections_->apply(frame_[i], skeleton_, size_);
     }
-    last_ = avatar_->render(bones, cropped, background_);
+    const auto posed = avatar_->pose(bones);
+    last_ = avatar_->render(posed, cropped, background_);
     last_.means2d.retain_grad();
     // Density statistics in the whole picture's normalised coordinates.
     last_width_ = camera.width;
@@ -243,7 +244,8 @@ class GaussianTrainable : public Trainable {
       out.terms.emplace_back("opacity", prior.detach());
     }
     if (options_.alpha_entropy_weight > 0) {
-      const auto prior = options_.alpha_entropy_weight * unseen_view_alpha_entropy(bones.detach(), camera, box);
+      const auto entropy = unseen_view_alpha_entropy(bones.detach(), posed_centre(posed.means), camera, box);
+      const auto prior = options_.alpha_entropy_weight * entropy;
       out.total = out.total + prior;
       out.terms.emplace_back("alpha_entropy", prior.detach());
     }
@@ -280,12 +282,14 @@ class GaussianTrainable : public Trainable {
   }
 
   // The unseen-view prior (gaussians/unseen_view_prior.h) for the step's
-  // bones, camera and box: the unseen view is cut to the same box.
-  torch::Tensor unseen_view_alpha_entropy(const torch::Tensor& bones, const PinholeCamera& camera,
-                                          const std::array<int64_t, 4>& box) {
+  // bones, the posed avatar's centre, camera and box: the unseen view is cut
+  // to the same box. The bones come detached, so that no pose correction
+  // learns from the unseen view; they are posed again for that reason.
+  torch::Tensor unseen_view_alpha_entropy(const torch::Tensor& bones, const Eigen::Vector3d& centre,
+                                          const PinholeCamera& camera, const std::array<int64_t, 4>& box) {
     const double max_radians = options_.alpha_entropy_degrees * M_PI / 180;
     const double radians = (2 * torch::rand({1}, torch::kFloat64).item<double>() - 1) * max_radians;
-    const auto view = unseen_view(camera, radians, avatar_->centre(bones)).cropped(box[0], box[1], box[2], box[3]);
+    const auto view = unseen_view(camera, radians, centre).cropped(box[0], box[1], box[2], box[3]);
     const double pixels = static_cast<double>(camera.width) * camera.height;
     return alpha_entropy_sum(avatar_->render(bones, view, background_).alpha) / pixels;
   }

@@ -94,6 +94,10 @@ struct GaussianRender {
   torch::Tensor offsets;  // [N, 3] the non-rigid offsets (their prior reads them); undefined without
 };
 
+// The middle of the box of posed means [N, 3] (a turntable and the unseen-view
+// prior turn the camera about it).
+Eigen::Vector3d posed_centre(const torch::Tensor& means);
+
 class GaussianAvatarImpl : public torch::nn::Module {
  public:
   // Gaussians sampled on character's canonical mesh (deterministic in `seed`):
@@ -131,13 +135,16 @@ class GaussianAvatarImpl : public torch::nn::Module {
   torch::Tensor skinning_weights();
   // The Gaussians in the frame of bones [J, 4, 4] (canonical -> posed).
   PosedGaussians pose(const torch::Tensor& bones);
-  // The middle of the box of the Gaussians' means posed by bones [J, 4, 4]
-  // (a turntable and the unseen-view prior turn the camera about it).
+  // posed_centre of the Gaussians posed by bones [J, 4, 4].
   Eigen::Vector3d centre(const torch::Tensor& bones);
   // A picture of the posed Gaussians [H, W, 3] and its alpha over a uniform
   // background; differentiable in the parameters (and in bones when they
   // require gradients).
   GaussianRender render(const torch::Tensor& bones, const PinholeCamera& camera,
+                        const std::array<double, 3>& background);
+  // The same for Gaussians already posed (pose(bones)), so that a step drawing
+  // its pose twice or reading its centre poses once.
+  GaussianRender render(const PosedGaussians& posed, const PinholeCamera& camera,
                         const std::array<double, 3>& background);
 
   // The per-Gaussian weights of the "surface" source [N, J] (a buffer, not
