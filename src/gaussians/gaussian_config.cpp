@@ -6,6 +6,7 @@
 
 #include "fskin/core/error.h"
 #include "fskin/engine/config_document.h"
+#include "fskin/radiance/image_dataset.h"
 #include "fskin/util/atomic_file.h"
 #include "fskin/version.h"
 
@@ -70,7 +71,8 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/losses/surface_layer/weight", layer_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/opacity/weight", opacity_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/alpha_entropy/weight", alpha_entropy_weight),
-    FSKIN_GAUSSIAN_FIELD("/losses/alpha_entropy/degrees", alpha_entropy_degrees),
+    FSKIN_GAUSSIAN_FIELD("/losses/unseen_view/degrees", unseen_view_degrees),
+    FSKIN_GAUSSIAN_FIELD("/losses/rig_silhouette/weight", rig_silhouette_weight),
     FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/means", means_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/scales", scales_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/rotations", rotations_learning_rate),
@@ -111,7 +113,7 @@ json gaussian_run_document(const GaussianTrainOptions& o) {
 }
 
 GaussianTrainOptions read_gaussian_run_config(const std::string& path, const std::string& run_dir) {
-  const json document = read_json_document(path);
+  json document = read_json_document(path);
   FSKIN_CHECK(document.is_object() && document.contains("format") && document.at("format") == kRunFormat,
               "{}: not a Gaussian avatar run", path);
   GaussianTrainOptions base;
@@ -128,19 +130,37 @@ GaussianTrainOptions read_gaussian_run_config(const std::string& path, const std
   if (!document.contains(json::json_pointer("/model/gaussians/dilation"))) base.avatar.dilation = 0.3;
   // ... and those written before the surface layer prior kept no anchors.
   if (!document.contains(json::json_pointer("/losses/surface_layer/weight"))) base.layer_weight = 0;
+  // ... those written before the rig silhouette prior drew no rig silhouette.
+  if (!document.contains(json::json_pointer("/losses/rig_silhouette/weight"))) base.rig_silhouette_weight = 0;
+  // ... and those written before the rig silhouette prior shared the unseen view kept its angle with the entropy's.
+  const json::json_pointer old_degrees("/losses/alpha_entropy/degrees");
+  if (document.is_object() && document.contains(old_degrees)) {
+    document[json::json_pointer("/losses/unseen_view/degrees")] = document.at(old_degrees);
+    document.at(json::json_pointer("/losses/alpha_entropy")).erase("degrees");
+  }
   return gaussian_options_from_document(document, base, path);
 }
 
 GaussianTrainOptions configure_gaussian_options(const GaussianTrainOptions& base, const std::string& config_path,
                                                 const std::vector<std::string>& settings) {
   GaussianTrainOptions options = base;
+  const json::json_pointer silhouette("/losses/rig_silhouette/weight");
+  bool silhouette_given = false;
   if (!config_path.empty()) {
-    options = gaussian_options_from_document(read_json_document(config_path), options, config_path);
+    const json document = read_json_document(config_path);
+    silhouette_given = silhouette_given || document.contains(silhouette);
+    options = gaussian_options_from_document(document, options, config_path);
   }
   for (const auto& setting : settings) {
     const std::string context = "--set " + setting;
-    options = gaussian_options_from_document(assignment_overlay(setting, "--set"), options, context);
+    const json overlay = assignment_overlay(setting, "--set");
+    silhouette_given = silhouette_given || overlay.contains(silhouette);
+    options = gaussian_options_from_document(overlay, options, context);
   }
+  // A capture's mesh is a body model fitted to its photographs, not the
+  // subject's surface: unless asked for, no rig silhouette prior, which would
+  // draw the clothing in to the body (rig_silhouette_prior.h).
+  if (!silhouette_given && image_dataset_mesh_is_fitted(options.data_dir)) options.rig_silhouette_weight = 0;
   return options;
 }
 

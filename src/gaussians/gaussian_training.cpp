@@ -20,6 +20,7 @@
 #include "fskin/gaussians/gaussian_config.h"
 #include "fskin/gaussians/opacity_prior.h"
 #include "fskin/gaussians/surface_layer.h"
+#include "fskin/gaussians/rig_silhouette_prior.h"
 #include "fskin/gaussians/unseen_view_prior.h"
 #include "fskin/radiance/avatar_character.h"
 #include "fskin/radiance/image_dataset.h"
@@ -78,9 +79,11 @@ void GaussianTrainOptions::validate() const {
               "gaussian avatar train: losses.opacity.weight must be >= 0, got {}", opacity_weight);
   FSKIN_CHECK(std::isfinite(alpha_entropy_weight) && alpha_entropy_weight >= 0,
               "gaussian avatar train: losses.alpha_entropy.weight must be >= 0, got {}", alpha_entropy_weight);
-  FSKIN_CHECK(std::isfinite(alpha_entropy_degrees) && alpha_entropy_degrees >= 0 && alpha_entropy_degrees <= 180,
-              "gaussian avatar train: losses.alpha_entropy.degrees must be within [0, 180], got {}",
-              alpha_entropy_degrees);
+  FSKIN_CHECK(std::isfinite(unseen_view_degrees) && unseen_view_degrees >= 0 && unseen_view_degrees <= 180,
+              "gaussian avatar train: losses.unseen_view.degrees must be within [0, 180], got {}",
+              unseen_view_degrees);
+  FSKIN_CHECK(std::isfinite(rig_silhouette_weight) && rig_silhouette_weight >= 0,
+              "gaussian avatar train: losses.rig_silhouette.weight must be >= 0, got {}", rig_silhouette_weight);
   FSKIN_CHECK(std::isfinite(pose_regularizer) && pose_regularizer >= 0,
               "gaussian avatar train: pose_refinement.regularizer must be >= 0, got {}", pose_regularizer);
   FSKIN_CHECK(pose_first_pass_steps >= 0, "gaussian avatar train: pose_refinement.first_pass_steps must be >= 0, got {}",
@@ -108,6 +111,7 @@ class GaussianTrainable : public Trainable {
         background_(data.background()),
         size_(character_size(data.character().mesh.vertices, "gaussian avatar train: canonical vertices")),
         skeleton_(data.character().skeleton),
+        character_(data.character()),
         frame_(frames_of_images(split.bone_transforms)) {
     statistics_.reset(avatar_->size());
     // One correction per pose, shared by the views that see it.
@@ -243,11 +247,23 @@ class GaussianTrainable : public Trainable {
       out.total = out.total + prior;
       out.terms.emplace_back("opacity", prior.detach());
     }
-    if (options_.alpha_entropy_weight > 0) {
-      const auto entropy = unseen_view_alpha_entropy(bones.detach(), posed_centre(posed.means), camera, box);
-      const auto prior = options_.alpha_entropy_weight * entropy;
-      out.total = out.total + prior;
-      out.terms.emplace_back("alpha_entropy", prior.detach());
+    if (options_.alpha_entropy_weight > 0 || options_.rig_silhouette_weight > 0) {
+      // The bones come detached: no pose correction learns from the unseen
+      // view, so the Gaussians are posed again for it.
+      const auto view = draw_unseen_view(posed_centre(posed.means), camera, box);
+      const auto alpha = avatar_->render(bones.detach(), view, background_).alpha;
+      const double pixels = static_cast<double>(camera.width) * camera.height;
+      if (options_.alpha_entropy_weight > 0) {
+        const auto prior = options_.alpha_entropy_weight * alpha_entropy_sum(alpha) / pixels;
+        out.total = out.total + prior;
+        out.terms.emplace_back("alpha_entropy", prior.detach());
+      }
+      if (options_.rig_silhouette_weight > 0) {
+        const auto coverage = posed_rig_coverage(character_, bones, view);
+        const auto prior = options_.rig_silhouette_weight * (alpha - coverage).abs().sum() / pixels;
+        out.total = out.total + prior;
+        out.terms.emplace_back("rig_silhouette", prior.detach());
+      }
     }
     if (corrections_) {
       const auto pose_loss = options_.pose_regularizer * corrections_->squared_size({frame_[i]});
@@ -281,17 +297,14 @@ class GaussianTrainable : public Trainable {
     if (d.opacity_reset_every > 0 && done % d.opacity_reset_every == 0) reset_opacities(*avatar_, adam, 0.01);
   }
 
-  // The unseen-view prior (gaussians/unseen_view_prior.h) for the step's
-  // bones, the posed avatar's centre, camera and box: the unseen view is cut
-  // to the same box. The bones come detached, so that no pose correction
-  // learns from the unseen view; they are posed again for that reason.
-  torch::Tensor unseen_view_alpha_entropy(const torch::Tensor& bones, const Eigen::Vector3d& centre,
-                                          const PinholeCamera& camera, const std::array<int64_t, 4>& box) {
-    const double max_radians = options_.alpha_entropy_degrees * M_PI / 180;
+  // The unseen view of the step (gaussians/unseen_view_prior.h): its camera
+  // turned about the posed avatar's centre by an angle drawn within
+  // +-unseen_view_degrees, cut to the step's box.
+  PinholeCamera draw_unseen_view(const Eigen::Vector3d& centre, const PinholeCamera& camera,
+                                 const std::array<int64_t, 4>& box) {
+    const double max_radians = options_.unseen_view_degrees * M_PI / 180;
     const double radians = (2 * torch::rand({1}, torch::kFloat64).item<double>() - 1) * max_radians;
-    const auto view = unseen_view(camera, radians, centre).cropped(box[0], box[1], box[2], box[3]);
-    const double pixels = static_cast<double>(camera.width) * camera.height;
-    return alpha_entropy_sum(avatar_->render(bones, view, background_).alpha) / pixels;
+    return unseen_view(camera, radians, centre).cropped(box[0], box[1], box[2], box[3]);
   }
 
   // The learned pose corrections (null without refine_poses).
@@ -310,6 +323,7 @@ class GaussianTrainable : public Trainable {
   std::array<double, 3> background_;
   double size_;
   Skeleton skeleton_;
+  RiggedMesh character_;  // the rig silhouette prior draws its mesh
   std::vector<int64_t> frame_;            // per image: its pose's frame (frames_of_images)
   PoseCorrections corrections_{nullptr};  // with refine_poses
   DensityStatistics statistics_;

@@ -234,6 +234,18 @@ torch::Tensor load_bone_transforms(const std::string& path, int64_t joints) {
   return bones;
 }
 
+bool image_dataset_mesh_is_fitted(const std::string& dir) {
+  const auto path = fs::path(dir) / "manifest.json";
+  std::error_code ignored;
+  if (dir.empty() || !fs::is_regular_file(path, ignored)) return false;
+  try {
+    const auto manifest = nlohmann::json::parse(read_file(path.string()));
+    return manifest.is_object() && manifest.contains("capture");
+  } catch (const std::exception&) {
+    return false;  // the training reads the manifest itself and names what is wrong
+  }
+}
+
 std::array<int64_t, 4> mask_box(const torch::Tensor& mask, double grow) {
   FSKIN_CHECK(mask.dim() == 2, "mask_box: mask must be [H, W]");
   const int64_t H = mask.size(0), W = mask.size(1);

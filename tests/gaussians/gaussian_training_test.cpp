@@ -254,13 +254,25 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
                         {"losses.opacity.weight must be >= 0"});
   EXPECT_EQ(base.alpha_entropy_weight, 0.0);
   const auto unseen = configure_gaussian_options(base, "", {"losses.alpha_entropy.weight=0.1",
-                                                            "losses.alpha_entropy.degrees=30"});
+                                                            "losses.unseen_view.degrees=30"});
   EXPECT_EQ(unseen.alpha_entropy_weight, 0.1);
-  EXPECT_EQ(unseen.alpha_entropy_degrees, 30.0);
+  EXPECT_EQ(unseen.unseen_view_degrees, 30.0);
   testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.alpha_entropy.weight=-1"}); },
                         {"losses.alpha_entropy.weight must be >= 0"});
-  testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.alpha_entropy.degrees=200"}); },
-                        {"losses.alpha_entropy.degrees must be within [0, 180]"});
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.unseen_view.degrees=200"}); },
+                        {"losses.unseen_view.degrees must be within [0, 180]"});
+  EXPECT_EQ(base.rig_silhouette_weight, 0.5);
+  EXPECT_EQ(configure_gaussian_options(base, "", {"losses.rig_silhouette.weight=0.25"}).rig_silhouette_weight, 0.25);
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.rig_silhouette.weight=-1"}); },
+                        {"losses.rig_silhouette.weight must be >= 0"});
+  // On a dataset imported from a capture (its mesh a fitted body model) the
+  // rig silhouette prior is off unless it is asked for.
+  auto capture = base;
+  capture.data_dir = testing::temp_dir("gaussian_config_capture").string();
+  std::ofstream(std::filesystem::path(capture.data_dir) / "manifest.json") << R"({"capture": "/somewhere"})";
+  EXPECT_EQ(configure_gaussian_options(capture, "", {}).rig_silhouette_weight, 0.0);
+  EXPECT_EQ(configure_gaussian_options(capture, "", {"losses.rig_silhouette.weight=0.5"}).rig_silhouette_weight, 0.5);
+  EXPECT_EQ(configure_gaussian_options(capture, "", {"losses.mask.weight=1"}).rig_silhouette_weight, 0.0);
   EXPECT_EQ(changed.avatar.skinning_source, "surface");
   testing::expect_error([&] { configure_gaussian_options(base, "", {"model.skinning.source=bones"}); },
                         {"--set model.skinning.source=bones", "\"surface\" or \"grid\""});
@@ -274,6 +286,9 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   old_document["model"]["gaussians"].erase("dilation");
   old_document["density"].erase("max_scale_spacings");
   old_document["losses"].erase("surface_layer");
+  old_document["losses"].erase("rig_silhouette");
+  old_document["losses"].erase("unseen_view");
+  old_document["losses"]["alpha_entropy"]["degrees"] = 30;
   std::ofstream(dir / "run.json") << old_document.dump();
   const auto old = read_gaussian_run_config((dir / "run.json").string(), dir.string()).avatar;
   EXPECT_EQ(old.skinning_source, "grid");
@@ -285,6 +300,9 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   // ... and without the surface layer prior, whose anchors its checkpoints lack.
   const auto old_options = read_gaussian_run_config((dir / "run.json").string(), dir.string());
   EXPECT_EQ(old_options.layer_weight, 0.0);
+  // ... its unseen view's angle kept under the entropy's key, and no rig silhouette prior.
+  EXPECT_EQ(old_options.unseen_view_degrees, 30.0);
+  EXPECT_EQ(old_options.rig_silhouette_weight, 0.0);
   EXPECT_FALSE(old_options.avatar_options().anchored);
   EXPECT_GT(changed.layer_weight, 0.0);
   EXPECT_TRUE(changed.avatar_options().anchored);

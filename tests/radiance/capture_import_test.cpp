@@ -81,6 +81,10 @@ TEST(CaptureImport, APeopleSnapshotCaptureBecomesTheDatasetItWasMadeFrom) {
   const auto held_out = imported.load_split("novel_pose");
   ASSERT_EQ(held_out.size(), 2);
   EXPECT_TRUE(torch::allclose(held_out.bone_transforms, want.bone_transforms.narrow(0, 4, 2), 1e-5, 1e-5));
+  // Its mesh is a body model fitted to the photographs; the original's is the subject's own.
+  EXPECT_TRUE(image_dataset_mesh_is_fitted(options.out_dir));
+  EXPECT_FALSE(image_dataset_mesh_is_fitted(tiny.dir));
+  EXPECT_FALSE(image_dataset_mesh_is_fitted(testing::temp_dir("no_dataset_here").string()));
   // Run again: everything is there, nothing is written.
   EXPECT_EQ(import_capture(options).images_skipped, 8);
 

@@ -5,7 +5,8 @@
 // rendered on the dataset's background (the subject's box of it,
 // crop_margin); the loss of 3D Gaussian
 // splatting, (1 - l) L1 + l (1 - SSIM) on colour (l = ssim_weight), plus
-// mask_weight x L1 between the picture's alpha and the mask; Adam with one
+// mask_weight x L1 between the picture's alpha and the mask, plus the priors
+// below (the rig silhouette prior on by default); Adam with one
 // learning rate per kind of parameter (3DGS's, the means' in units of the
 // character's size), decayed by the Trainer's cosine schedule; adaptive
 // density control (density_control.h) after the optimiser's steps.
@@ -67,10 +68,17 @@ struct GaussianTrainOptions {
   double opacity_weight = 0;
   // The unseen-view prior (gaussians/unseen_view_prior.h): this weight times
   // the opacity's binary entropy in a picture of the step's pose from its
-  // camera turned by up to alpha_entropy_degrees; 0: none (one render less
+  // camera turned by up to unseen_view_degrees; 0: none (one render less
   // per step).
   double alpha_entropy_weight = 0;
-  double alpha_entropy_degrees = 45;
+  double unseen_view_degrees = 45;
+  // The rig silhouette prior (gaussians/rig_silhouette_prior.h): this weight
+  // times the L1 distance between the unseen view's opacity (above; the
+  // angle's bound is unseen_view_degrees) and the rig's posed mesh's
+  // coverage; 0: none. The mask loss's weight. configure_gaussian_options
+  // sets it to 0 for a dataset imported from a capture unless it is given
+  // (image_dataset_mesh_is_fitted: the mesh is a fitted body model).
+  double rig_silhouette_weight = 0.5;
   // The avatar's options as this training builds it (anchored with the surface layer prior).
   GaussianAvatarOptions avatar_options() const {
     auto out = avatar;

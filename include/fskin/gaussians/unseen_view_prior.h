@@ -4,13 +4,15 @@
 // between them. Each training step then also draws the step's pose from an
 // unseen view, the step's camera turned about its picture's vertical axis
 // through the posed avatar's centre by an angle drawn uniformly within
-// +-degrees, and adds the weight times the binary entropy of that picture's
-// opacity, -(a ln a + (1 - a) ln(1 - a)), summed over its pixels and divided by
-// the training picture's pixel count (as the other losses are normalised). It
-// asks every view for a subject that covers each pixel fully or not at all:
-// a solid body, not a haze of half-transparent Gaussians that the training
-// cameras happen to see as one. It uses no mask and assumes nothing of the
-// subject's shape, so it holds for clothing and for any rig.
+// +-losses.unseen_view.degrees (the rig silhouette prior,
+// rig_silhouette_prior.h, reads the same picture), and adds the weight times
+// the binary entropy of that picture's opacity, -(a ln a + (1 - a) ln(1 - a)),
+// summed over its pixels and divided by the training picture's pixel count
+// (as the other losses are normalised). It asks every view for a subject that
+// covers each pixel fully or not at all: a solid body, not a haze of
+// half-transparent Gaussians that the training cameras happen to see as one.
+// It uses no mask and assumes nothing of the subject's shape, so it holds for
+// clothing and for any rig.
 //
 // Why it is off by default: the second picture per step makes training 1.5-1.9
 // times as long; what it gains (both the demo's lit and unlit images, 3

@@ -81,6 +81,12 @@ std::vector<PinholeCamera> load_cameras(const std::string& path, int64_t n);
 // finite, rigid-looking), errors name the file.
 torch::Tensor load_bone_transforms(const std::string& path, int64_t joints);
 
+// Whether the image dataset in `dir` was imported from a capture
+// (radiance/capture_import.h; its manifest records the capture): its
+// canonical mesh is then a body model fitted to photographs rather than the
+// subject's own surface. False for any other directory, readable or not.
+bool image_dataset_mesh_is_fitted(const std::string& dir);
+
 // The box (u0, v0, u1, v1), ends exclusive, of a mask's pixels > 0, grown by
 // `grow` times its size (half on each side) and clipped to the image; the
 // whole image for an empty mask.
