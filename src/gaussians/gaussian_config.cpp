@@ -72,6 +72,7 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/losses/opacity/weight", opacity_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/alpha_entropy/weight", alpha_entropy_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/unseen_view/degrees", unseen_view_degrees),
+    FSKIN_GAUSSIAN_FIELD("/losses/unseen_view/every", unseen_view_every),
     FSKIN_GAUSSIAN_FIELD("/losses/rig_silhouette/weight", rig_silhouette_weight),
     FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/means", means_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/optimizer/learning_rates/scales", scales_learning_rate),

@@ -82,6 +82,8 @@ void GaussianTrainOptions::validate() const {
   FSKIN_CHECK(std::isfinite(unseen_view_degrees) && unseen_view_degrees >= 0 && unseen_view_degrees <= 180,
               "gaussian avatar train: losses.unseen_view.degrees must be within [0, 180], got {}",
               unseen_view_degrees);
+  FSKIN_CHECK(unseen_view_every >= 1, "gaussian avatar train: losses.unseen_view.every must be >= 1, got {}",
+              unseen_view_every);
   FSKIN_CHECK(std::isfinite(rig_silhouette_weight) && rig_silhouette_weight >= 0,
               "gaussian avatar train: losses.rig_silhouette.weight must be >= 0, got {}", rig_silhouette_weight);
   FSKIN_CHECK(std::isfinite(pose_regularizer) && pose_regularizer >= 0,
@@ -194,7 +196,6 @@ class GaussianTrainable : public Trainable {
   }
 
   StepLosses step_losses(int64_t step, uint64_t seed, const Shard& shard) override {
-    (void)step;
     (void)seed;
     FSKIN_CHECK(shard.count == 1, "gaussian avatar train: data-parallel ranks are not supported yet");
     const int64_t i = torch::randint(split_.size(), {1}, torch::kInt64).item<int64_t>();
@@ -247,7 +248,8 @@ class GaussianTrainable : public Trainable {
       out.total = out.total + prior;
       out.terms.emplace_back("opacity", prior.detach());
     }
-    if (options_.alpha_entropy_weight > 0 || options_.rig_silhouette_weight > 0) {
+    const bool unseen = options_.alpha_entropy_weight > 0 || options_.rig_silhouette_weight > 0;
+    if (unseen && step % options_.unseen_view_every == 0) {
       // The bones come detached: no pose correction learns from the unseen
       // view, so the Gaussians are posed again for it.
       const auto view = draw_unseen_view(posed_centre(posed.means), camera, box);

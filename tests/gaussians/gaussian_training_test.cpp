@@ -261,6 +261,10 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
                         {"losses.alpha_entropy.weight must be >= 0"});
   testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.unseen_view.degrees=200"}); },
                         {"losses.unseen_view.degrees must be within [0, 180]"});
+  EXPECT_EQ(base.unseen_view_every, 1);
+  EXPECT_EQ(configure_gaussian_options(base, "", {"losses.unseen_view.every=3"}).unseen_view_every, 3);
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.unseen_view.every=0"}); },
+                        {"losses.unseen_view.every must be >= 1"});
   EXPECT_EQ(base.rig_silhouette_weight, 0.5);
   EXPECT_EQ(configure_gaussian_options(base, "", {"losses.rig_silhouette.weight=0.25"}).rig_silhouette_weight, 0.25);
   testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.rig_silhouette.weight=-1"}); },
