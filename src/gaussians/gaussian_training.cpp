@@ -19,8 +19,8 @@
 #include "fskin/geometry/character_size.h"
 #include "fskin/gaussians/gaussian_config.h"
 #include "fskin/gaussians/opacity_prior.h"
-#include "fskin/gaussians/surface_layer.h"
 #include "fskin/gaussians/rig_silhouette_prior.h"
+#include "fskin/gaussians/surface_layer.h"
 #include "fskin/gaussians/unseen_view_prior.h"
 #include "fskin/radiance/avatar_character.h"
 #include "fskin/radiance/image_dataset.h"
@@ -254,15 +254,18 @@ class GaussianTrainable : public Trainable {
       // view, so the Gaussians are posed again for it.
       const auto view = draw_unseen_view(posed_centre(posed.means), camera, box);
       const auto alpha = avatar_->render(bones.detach(), view, background_).alpha;
-      const double pixels = static_cast<double>(camera.width) * camera.height;
+      // Sums over the training picture's pixel count, as the other losses; drawn
+      // on one step in `every`, each prior counts `every` times there, so that
+      // its weight is its mean per step whatever `every` is.
+      const double scale = static_cast<double>(options_.unseen_view_every) / (camera.width * camera.height);
       if (options_.alpha_entropy_weight > 0) {
-        const auto prior = options_.alpha_entropy_weight * alpha_entropy_sum(alpha) / pixels;
+        const auto prior = options_.alpha_entropy_weight * scale * alpha_entropy_sum(alpha);
         out.total = out.total + prior;
         out.terms.emplace_back("alpha_entropy", prior.detach());
       }
       if (options_.rig_silhouette_weight > 0) {
         const auto coverage = posed_rig_coverage(character_, bones, view);
-        const auto prior = options_.rig_silhouette_weight * (alpha - coverage).abs().sum() / pixels;
+        const auto prior = options_.rig_silhouette_weight * scale * (alpha - coverage).abs().sum();
         out.total = out.total + prior;
         out.terms.emplace_back("rig_silhouette", prior.detach());
       }

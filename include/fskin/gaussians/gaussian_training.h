@@ -72,8 +72,9 @@ struct GaussianTrainOptions {
   // per step).
   double alpha_entropy_weight = 0;
   double unseen_view_degrees = 45;
-  // The unseen view is drawn on every this-many-th step (the priors' weights
-  // apply on those steps): fewer renders, a less frequent prior.
+  // The unseen view is drawn on every this-many-th step only, its priors
+  // counted this many times there (their weights stay their means per step):
+  // fewer renders, a less frequent prior.
   int64_t unseen_view_every = 1;
   // The rig silhouette prior (gaussians/rig_silhouette_prior.h): this weight
   // times the L1 distance between the unseen view's opacity (above; the
