@@ -133,6 +133,8 @@ GaussianTrainOptions read_gaussian_run_config(const std::string& path, const std
   if (!document.contains(json::json_pointer("/losses/surface_layer/weight"))) base.layer_weight = 0;
   // ... those written before the rig silhouette prior drew no rig silhouette.
   if (!document.contains(json::json_pointer("/losses/rig_silhouette/weight"))) base.rig_silhouette_weight = 0;
+  // ... and those written before the unseen view's interval drew it on every step.
+  if (!document.contains(json::json_pointer("/losses/unseen_view/every"))) base.unseen_view_every = 1;
   // ... and those written before the rig silhouette prior shared the unseen view kept its angle with the entropy's.
   const json::json_pointer old_degrees("/losses/alpha_entropy/degrees");
   if (document.is_object() && document.contains(old_degrees)) {

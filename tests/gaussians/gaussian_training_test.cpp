@@ -261,7 +261,7 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
                         {"losses.alpha_entropy.weight must be >= 0"});
   testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.unseen_view.degrees=200"}); },
                         {"losses.unseen_view.degrees must be within [0, 180]"});
-  EXPECT_EQ(base.unseen_view_every, 1);
+  EXPECT_EQ(base.unseen_view_every, 4);
   EXPECT_EQ(configure_gaussian_options(base, "", {"losses.unseen_view.every=3"}).unseen_view_every, 3);
   testing::expect_error([&] { configure_gaussian_options(base, "", {"losses.unseen_view.every=0"}); },
                         {"losses.unseen_view.every must be >= 1"});
@@ -307,6 +307,7 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   // ... its unseen view's angle kept under the entropy's key, and no rig silhouette prior.
   EXPECT_EQ(old_options.unseen_view_degrees, 30.0);
   EXPECT_EQ(old_options.rig_silhouette_weight, 0.0);
+  EXPECT_EQ(old_options.unseen_view_every, 1);
   EXPECT_FALSE(old_options.avatar_options().anchored);
   EXPECT_GT(changed.layer_weight, 0.0);
   EXPECT_TRUE(changed.avatar_options().anchored);
