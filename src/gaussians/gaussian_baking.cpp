@@ -16,7 +16,6 @@
 #include "fskin/geometry/mesh_topology.h"
 #include "fskin/gaussians/gaussian_projection.h"
 #include "fskin/gaussians/spherical_harmonics.h"
-#include "fskin/skeleton/lbs.h"
 
 namespace fskin {
 namespace {
@@ -156,9 +155,7 @@ torch::Tensor render_baked_mesh(const RiggedMesh& baked, const torch::Tensor& bo
     for (int k = 0; k < 3; ++k) c += b[k] * Eigen::Map<const Eigen::Vector3f>(color + 3 * corners[3 * face + k]);
     return c;
   };
-  const auto posed = linear_blend_skinning(baked.mesh.vertices.to(torch::kFloat32).unsqueeze(0),
-                                           baked.weights.to(torch::kFloat32),
-                                           bones.to(torch::kCPU, torch::kFloat32).unsqueeze(0))[0];
+  const auto posed = posed_vertices(baked, bones);
   Rgb8 background8;
   for (int c = 0; c < 3; ++c) {
     background8[c] = static_cast<uint8_t>(std::lround(255 * std::clamp(background[c], 0.0, 1.0)));

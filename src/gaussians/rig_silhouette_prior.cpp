@@ -2,16 +2,13 @@
 
 #include "fskin/core/error.h"
 #include "fskin/export/render.h"
-#include "fskin/skeleton/lbs.h"
 
 namespace fskin {
 
 torch::Tensor posed_rig_coverage(const RiggedMesh& character, const torch::Tensor& bones,
                                  const PinholeCamera& camera, int supersampling) {
   torch::NoGradGuard no_grad;
-  const auto posed = linear_blend_skinning(character.mesh.vertices.to(torch::kFloat32).unsqueeze(0),
-                                           character.weights.to(torch::kFloat32),
-                                           bones.detach().to(torch::kCPU, torch::kFloat32).unsqueeze(0))[0];
+  const auto posed = posed_vertices(character, bones.detach());
   const SurfaceShader flat = [](int64_t, float, float, float) { return Eigen::Vector3f::Zero(); };
   const Mesh mesh{posed.contiguous(), character.mesh.faces.contiguous(), {}};
   auto picture = render_surface(mesh, camera, supersampling, flat, Rgb8{255, 255, 255});

@@ -68,8 +68,8 @@ struct GaussianTrainOptions {
   double opacity_weight = 0;
   // The unseen-view prior (gaussians/unseen_view_prior.h): this weight times
   // the opacity's binary entropy in a picture of the step's pose from its
-  // camera turned by up to unseen_view_degrees; 0: none (one render less
-  // per step).
+  // camera turned by up to unseen_view_degrees (the picture the rig
+  // silhouette prior reads too); 0: none.
   double alpha_entropy_weight = 0;
   double unseen_view_degrees = 45;
   // The unseen view is drawn on every this-many-th step only, its priors

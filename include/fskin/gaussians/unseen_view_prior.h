@@ -14,9 +14,10 @@
 // It uses no mask and assumes nothing of the subject's shape, so it holds for
 // clothing and for any rig.
 //
-// Why it is off by default: the second picture per step makes training 1.5-1.9
-// times as long; what it gains (both the demo's lit and unlit images, 3
-// seeds) is in docs/benchmarks.md, "Gaussian avatars".
+// Why it is off by default: alone it gains the demo's lit and unlit images
+// 0.5-0.6 dB (3 seeds), but with the rig silhouette prior, on by default, it
+// gains nothing (seed 0; docs/benchmarks.md, "Gaussian avatars"). Where that
+// prior is off (captures), it is the one that holds for clothing.
 #include <torch/torch.h>
 
 #include <Eigen/Core>

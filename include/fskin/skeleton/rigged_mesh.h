@@ -29,4 +29,8 @@ struct RiggedMesh {
   void validate(const std::string& context) const;
 };
 
+// The mesh's vertices [V, 3] float32 on the CPU posed by bones [J, 4, 4]
+// (canonical -> posed) through its weights (linear blend skinning, SNARF eq. 4).
+torch::Tensor posed_vertices(const RiggedMesh& rigged, const torch::Tensor& bones);
+
 }  // namespace fskin
