@@ -118,6 +118,10 @@ void register_data(CLI::App& app) {
       ->delimiter(',');
   images->add_option("--ambient", images_opt->dataset.ambient, "the shaded colour's ambient share, with --light")
       ->check(CLI::Range(0.0, 1.0));
+  images->add_option("--light-change", images_opt->dataset.light_change,
+                     "light that changes from frame to frame: each training pose's colours scaled per channel by "
+                     "factors drawn from [1 - X, 1 + X] (its novel views too; novel poses unchanged); default 0")
+      ->check(CLI::Range(0.0, 0.99));
   images->add_flag("--quiet", images_opt->quiet, "no progress bar");
   images->callback([images_opt] {
     auto options = images_opt->dataset;

@@ -17,6 +17,7 @@
 #include "fskin/core/tensor_checks.h"
 #include "fskin/data/build_manifest.h"
 #include "fskin/data/dataset_builder.h"
+#include "fskin/data/random.h"
 #include "fskin/export/image.h"
 #include "fskin/export/render.h"
 #include "fskin/geometry/mesh_topology.h"
@@ -43,7 +44,18 @@ struct ImagePlan {
   int64_t pose_index = 0, view_index = 0;
   torch::Tensor bones;     // [J, 4, 4] canonical -> posed
   torch::Tensor vertices;  // [V, 3] posed
+  Eigen::Vector3f light_scale = Eigen::Vector3f::Ones();  // ImageDatasetOptions::light_change
 };
+
+// Training pose p's per-channel factors in [1 - change, 1 + change]
+// (ImageDatasetOptions::light_change), drawn from pose p's own stream, so
+// that a dataset rebuilt or resumed draws the same.
+Eigen::Vector3f light_change_factors(int64_t p, double change) {
+  auto rng = Rng::for_item(/*seed=*/0x11647, static_cast<uint64_t>(p));
+  Eigen::Vector3f out;
+  for (int c = 0; c < 3; ++c) out[c] = static_cast<float>(rng.uniform(1 - change, 1 + change));
+  return out;
+}
 
 // A rotation by `angle` about +Y through `centre` as a 4x4 transform.
 torch::Tensor turn_about_y(double angle, const torch::Tensor& centre) {
@@ -89,6 +101,8 @@ void ImageDatasetOptions::validate() const {
   for (const double c : light)
     FSKIN_CHECK(std::isfinite(c), "image dataset: the light direction must be finite, got {}", c);
   FSKIN_CHECK(ambient >= 0 && ambient <= 1, "image dataset: ambient must be within [0, 1], got {}", ambient);
+  FSKIN_CHECK(light_change >= 0 && light_change < 1, "image dataset: light change must be within [0, 1), got {}",
+              light_change);
 }
 
 std::string ImageDatasetSummary::to_string() const {
@@ -146,6 +160,8 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
     item.pose_index = pose_index;
     item.view_index = view;
     std::tie(item.bones, item.vertices) = posed_frame(set, pose_index, turn);
+    if (split != "novel_pose" && options.light_change > 0)
+      item.light_scale = light_change_factors(pose_index, options.light_change);
     plan.push_back(std::move(item));
   };
   for (int64_t p = 0; p < n_train; ++p)
@@ -214,6 +230,7 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
     manifest["light"] = {options.light[0], options.light[1], options.light[2]};
     manifest["ambient"] = options.ambient;
   }
+  if (options.light_change > 0) manifest["light_change"] = options.light_change;
   const fs::path dir(options.out_dir);
   const BuildManifest build_manifest(options.out_dir, manifest);
   save_canonical_character(character, (dir / "canonical.npz").string());
@@ -288,11 +305,12 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
           for (int64_t j = 0; j < J; ++j) w[j] += b[k] * weight_data[v * J + j];
         }
         const Eigen::Vector3f albedo = texture.albedo(p, w.data());
-        if (!lit) return albedo;
+        const Eigen::Vector3f& scale = item->light_scale;
+        if (!lit) return Eigen::Vector3f(albedo.cwiseProduct(scale).cwiseMin(1.0f));
         Eigen::Vector3f n = Eigen::Vector3f::Zero();
         for (int k = 0; k < 3; ++k) n += b[k] * Eigen::Map<const Eigen::Vector3f>(normal_data + 3 * faces[3 * face + k]);
         const float lambert = std::max(0.0f, n.normalized().dot(light));
-        return Eigen::Vector3f(albedo * (ambient + (1 - ambient) * lambert));
+        return Eigen::Vector3f((albedo * (ambient + (1 - ambient) * lambert)).cwiseProduct(scale).cwiseMin(1.0f));
       };
       const auto render = render_surface(mesh, views[item->view_index], options.supersampling, shade, background8);
       write_png(image_path.string(), render.image);

@@ -224,6 +224,62 @@ TEST(ImageDataset, ALightShadesTheSurfaceAsItFacesTheLight) {
   testing::expect_error([&] { build_image_dataset(tiny.model, tiny.poses, tiny.held_out, bad); }, {"ambient"});
 }
 
+TEST(ImageDataset, LightThatChangesScalesEachTrainingPoseAndLeavesNovelPoses) {
+  const auto& tiny = testing::tiny_image_dataset();
+  const auto dir = testing::temp_dir("image_dataset_light_change");
+  auto options = testing::tiny_image_options(dir.string());
+  options.light_change = 0.3;
+  build_image_dataset(tiny.model, tiny.poses, tiny.held_out, options);
+  const auto manifest = nlohmann::json::parse(read_file((dir / "manifest.json").string()));
+  EXPECT_DOUBLE_EQ(manifest.at("light_change").get<double>(), 0.3);
+  const ImageDataset changed(dir.string()), plain(tiny.dir);
+  // The per-channel factor of each image: the subject's mean over the plain
+  // render's, where neither is clamped (below 250).
+  const auto factors = [](const ImageSplit& a, const ImageSplit& b) {
+    std::vector<std::array<double, 3>> out;
+    for (int64_t i = 0; i < a.size(); ++i) {
+      std::array<double, 3> f{};
+      for (int c = 0; c < 3; ++c) {
+        const auto x = a.images[i].select(2, c).to(torch::kFloat64), y = b.images[i].select(2, c).to(torch::kFloat64);
+        const auto use = (b.masks[i] == 255) & (x < 250) & (y > 40);
+        f[c] = (x.masked_select(use).sum() / y.masked_select(use).sum()).item<double>();
+      }
+      out.push_back(f);
+    }
+    return out;
+  };
+  for (const auto& name : {"train", "novel_view", "novel_pose"}) {
+    const auto a = changed.load_split(name), b = plain.load_split(name);
+    EXPECT_TRUE(torch::equal(a.masks, b.masks)) << name;
+    const auto f = factors(a, b);
+    for (int64_t i = 0; i < a.size(); ++i) {
+      for (int c = 0; c < 3; ++c) {
+        if (std::string(name) == "novel_pose") {
+          EXPECT_NEAR(f[i][c], 1.0, 0.01) << name << " " << i;  // novel poses keep the plain light
+        } else {
+          EXPECT_GT(f[i][c], 0.69) << name << " " << i;
+          EXPECT_LT(f[i][c], 1.31) << name << " " << i;
+        }
+      }
+    }
+    if (std::string(name) == "novel_pose") continue;
+    // Every view of a pose shares its factors; the poses' differ.
+    for (int64_t i = 0; i < a.size(); ++i)
+      for (int64_t j = 0; j < a.size(); ++j)
+        if (a.pose_index[i].item<int64_t>() == a.pose_index[j].item<int64_t>())
+          for (int c = 0; c < 3; ++c) EXPECT_NEAR(f[i][c], f[j][c], 0.02) << name << " " << i << " " << j;
+  }
+  const auto train = changed.load_split("train");
+  const auto f = factors(train, plain.load_split("train"));
+  double spread = 0;
+  for (const auto& row : f)
+    for (int c = 0; c < 3; ++c) spread = std::max(spread, std::abs(row[c] - f[0][c]));
+  EXPECT_GT(spread, 0.02);
+  auto bad = options;
+  bad.light_change = 1.0;
+  testing::expect_error([&] { build_image_dataset(tiny.model, tiny.poses, tiny.held_out, bad); }, {"light change"});
+}
+
 TEST(SurfaceTexture, GivesEveryRigDetailAndTheSmplCharacterAFace) {
   const auto& tiny = testing::tiny_image_dataset();
   const ImageDataset data(tiny.dir);

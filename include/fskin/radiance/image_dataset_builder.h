@@ -33,6 +33,14 @@ struct ImageDatasetOptions {
   // and bends, as in a capture under a fixed lamp.
   std::array<double, 3> light{0.0, 0.0, 0.0};
   double ambient = 0.3;
+  // Light that changes from frame to frame (a flickering lamp, clouds, a
+  // camera's automatic exposure and white balance): each training pose's
+  // colours, lit or not, scaled per channel by factors drawn uniformly from
+  // [1 - light_change, 1 + light_change] (the same for every view of the
+  // pose, the novel_view images of that pose included; novel poses at 1),
+  // clamped to 1. A per-frame appearance code can hold it; a colour shared by
+  // every frame cannot. 0: none. Deterministic in the pose's index.
+  double light_change = 0;
   std::string canonical_pose = "default";  // dataset_builder.h
   std::string model_source, poses_source, ood_poses_source;  // recorded in the manifest
   bool progress = true;
