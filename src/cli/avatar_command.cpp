@@ -95,13 +95,16 @@ RenderableAvatar load_renderable(const std::string& run, bool mesh) {
         return render_baked_mesh(*baked, bones, camera, background);
       };
     } else {
-      out.render = [trained](const torch::Tensor& bones, const torch::Tensor&, const PinholeCamera& camera,
+      out.render = [trained](const torch::Tensor& bones, const torch::Tensor& appearance, const PinholeCamera& camera,
                              const std::array<double, 3>& background) {
-        return trained->render(bones, camera, background).first;
+        return trained->render(bones, camera, background, appearance).first;
       };
     }
     out.bones_for = [trained](const torch::Tensor& given) { return trained->bones_for(given); };
-    out.appearance_for = [](const torch::Tensor&) { return torch::Tensor(); };
+    // The baked mesh holds the colours at code zero (gaussian_baking.h).
+    out.appearance_for = [trained, mesh](const torch::Tensor& given) {
+      return mesh ? torch::Tensor() : trained->appearance_for(given);
+    };
     out.centre = [trained](const torch::Tensor& bones) { return trained->avatar->centre(bones); };
     return out;
   }
@@ -161,7 +164,8 @@ void register_avatar(CLI::App& app) {
       ->check(CLI::IsMember({"none", "lambert", "irradiance"}));
   t->add_option("--appearance-codes", train->avatar.field.appearance_dim,
                 "length of a learned code per training frame that the colour is conditioned on (light that "
-                "changes from frame to frame; new poses get the codes' mean); 0: none")
+                "changes from frame to frame; new poses get the codes' mean); 0: none (with --representation "
+                "gaussians: model.appearance.dim)")
       ->check(CLI::NonNegativeNumber);
   t->add_flag(
       "--learn-skinning", [train](int64_t) { train->avatar.skinning = "learned"; },
@@ -187,7 +191,7 @@ void register_avatar(CLI::App& app) {
     if (*representation == "gaussians") {
       // The volume avatar's own options do not apply.
       for (const char* name : {"--rays", "--images-per-step", "--lr", "--background", "--samples", "--levels",
-                               "--log2-table-size", "--appearance-codes", "--learn-skinning"}) {
+                               "--log2-table-size", "--learn-skinning"}) {
         FSKIN_CHECK(t->count(name) == 0, "{} is an option of the volume avatar, not of --representation gaussians",
                     name);
       }
@@ -199,6 +203,7 @@ void register_avatar(CLI::App& app) {
       if (t->count("--checkpoint-every") > 0) base.checkpoint_every = train->checkpoint_every;
       if (t->count("--refine-poses") > 0) base.refine_poses = true;
       if (t->count("--shading") > 0) base.avatar.shading = train->avatar.field.shading;
+      if (t->count("--appearance-codes") > 0) base.avatar.appearance.dim = train->avatar.field.appearance_dim;
       GaussianTrainOptions options = configure_gaussian_options(base, *config_file, *assignments);
       options.resume = train->resume;
       options.progress = !*quiet;

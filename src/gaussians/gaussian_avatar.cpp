@@ -47,6 +47,7 @@ void GaussianAvatarOptions::validate() const {
               dilation);
   FSKIN_CHECK(shading == "none" || shading == "irradiance",
               "gaussian avatar: shading must be \"none\" or \"irradiance\", got \"{}\"", shading);
+  appearance.validate();
 }
 
 GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvatarOptions options, uint64_t seed)
@@ -110,6 +111,10 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
                                     character_size(v, "gaussian avatar: canonical vertices"), options_.non_rigid_network));
   }
   if (options_.shading == "irradiance") shading_ = register_module("shading", GaussianShading());
+  if (options_.appearance.dim > 0) {
+    appearance_ = register_module(
+        "appearance", GaussianAppearance(std::get<0>(v.min(0)), std::get<0>(v.max(0)), options_.appearance));
+  }
   log_scales_ = register_parameter("log_scales", log_scales);
   rotations_ = register_parameter("rotations", rotations);
   const double logit = std::log(options_.initial_opacity / (1 - options_.initial_opacity));
@@ -120,6 +125,14 @@ GaussianAvatarImpl::GaussianAvatarImpl(const RiggedMesh& character, GaussianAvat
 }
 
 torch::Tensor GaussianAvatarImpl::sh() const { return torch::cat({sh_dc_, sh_rest_}, 1); }
+
+torch::Tensor GaussianAvatarImpl::average_appearance_sh() {
+  torch::NoGradGuard no_grad;
+  auto dc = sh_dc_.detach();
+  // The colour's offset d is the degree-0 coefficient's d / Y_0 (spherical_harmonics.h).
+  if (appearance_) dc = dc + color_to_spherical_harmonics_dc(appearance_->forward(means_, {}) + 0.5).unsqueeze(1);
+  return torch::cat({dc, sh_rest_.detach()}, 1);
+}
 
 torch::Tensor GaussianAvatarImpl::skinning_weights() {
   const auto source = skinning_ ? skinning_->weights(means_) : surface_weights_;
@@ -155,12 +168,14 @@ Eigen::Vector3d GaussianAvatarImpl::centre(const torch::Tensor& bones) {
 }
 
 GaussianRender GaussianAvatarImpl::render(const torch::Tensor& bones, const PinholeCamera& camera,
-                                          const std::array<double, 3>& background) {
-  return render(pose(bones), camera, background);
+                                          const std::array<double, 3>& background, const torch::Tensor& appearance) {
+  return render(pose(bones), camera, background, appearance);
 }
 
 GaussianRender GaussianAvatarImpl::render(const PosedGaussians& posed, const PinholeCamera& camera,
-                                          const std::array<double, 3>& background) {
+                                          const std::array<double, 3>& background, const torch::Tensor& appearance) {
+  FSKIN_CHECK(!appearance.defined() || appearance_,
+              "gaussian avatar: an appearance code given to an avatar without appearance codes");
   ProjectionOptions projection;
   projection.compensate = options_.antialiased;
   projection.dilation = options_.dilation;
@@ -171,6 +186,7 @@ GaussianRender GaussianAvatarImpl::render(const PosedGaussians& posed, const Pin
   const auto view = torch::matmul(posed.linear.transpose(1, 2), (posed.means - eye_tensor).unsqueeze(-1)).squeeze(-1);
   const auto directions = view / view.norm(2, 1, true).clamp_min(1e-12);
   auto colors = spherical_harmonics_color(sh(), directions);
+  if (appearance_) colors = (colors + appearance_->forward(means_, appearance)).clamp_min(0);
   if (shading_) {
     // The normals without gradients: through them each Gaussian could tilt
     // to set its own shade, which fits the training views and draws the

@@ -14,7 +14,7 @@ AvatarEvaluation evaluate_gaussian_avatar_run(const std::string& run_dir, const 
   const ImageDataset data(data_dir.empty() ? trained.options.data_dir : data_dir);
   const FrameRenderer render = [&trained](const FrameInputs& inputs, const PinholeCamera& camera,
                                           const std::array<double, 3>& background) {
-    return trained.render(inputs.bones, camera, background).first;
+    return trained.render(inputs.bones, camera, background, inputs.appearance).first;
   };
   const auto& character = data.character();
   const double size = character_size(character.mesh.vertices, "avatar eval: canonical vertices");
@@ -24,7 +24,7 @@ AvatarEvaluation evaluate_gaussian_avatar_run(const std::string& run_dir, const 
     const auto bones = fit_gaussian_pose_to_image(*trained.avatar, images, i,
                                                   trained.bones_for(images.bone_transforms[i]), data.background(),
                                                   character.skeleton, size, trained.options.mask_weight, fitting);
-    return FrameInputs{bones, {}};
+    return FrameInputs{bones, trained.appearance_for(images.bone_transforms[i])};
   };
   auto scores = evaluate_renders(render, data, split, max_images, progress, inputs_of);
   scores.pose_fitting_steps = fitting.steps;

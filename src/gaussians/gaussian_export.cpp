@@ -68,9 +68,10 @@ void write_gaussian_ply(const std::string& path, GaussianAvatarImpl& avatar, con
   header << "end_header\n";
 
   // 3DGS stores the higher-degree coefficients channel by channel: [N, 3, K - 1].
+  const auto sh = avatar.average_appearance_sh();
   const auto vertex_rows = torch::cat({avatar.means().detach(), torch::zeros({n, 3}),
-                                       avatar.sh_dc().detach().reshape({n, 3}),
-                                       avatar.sh_rest().detach().transpose(1, 2).reshape({n, 3 * rest}),
+                                       sh.select(1, 0).reshape({n, 3}),
+                                       sh.narrow(1, 1, rest).transpose(1, 2).reshape({n, 3 * rest}),
                                        avatar.opacity_logits().detach().unsqueeze(1), avatar.log_scales().detach(),
                                        avatar.rotations().detach(), weights.detach()},
                                       1);

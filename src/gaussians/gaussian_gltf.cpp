@@ -61,7 +61,7 @@ void write_gaussian_gltf(const std::string& path, GaussianAvatarImpl& avatar, co
   const auto opacity = torch::sigmoid(avatar.opacity_logits().detach());
   primitive.attributes[prefix + "OPACITY"] = add_attribute(writer, opacity.unsqueeze(1), TINYGLTF_TYPE_SCALAR);
   // Coefficient k of degree l is column l^2 + k of fskin's [N, (degree + 1)^2, 3] (3DGS's order).
-  const auto sh = avatar.sh().detach();
+  const auto sh = avatar.average_appearance_sh();
   for (int64_t l = 0; l <= avatar.sh_degree(); ++l) {
     for (int64_t k = 0; k <= 2 * l; ++k) {
       primitive.attributes[prefix + "SH_DEGREE_" + std::to_string(l) + "_COEF_" + std::to_string(k)] =

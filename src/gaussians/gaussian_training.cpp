@@ -34,6 +34,7 @@ namespace fs = std::filesystem;
 
 constexpr const char* kGaussianArchiveKey = "gaussian_avatar";
 constexpr const char* kPoseCorrectionsKey = "pose_corrections";  // inside the avatar's archive
+constexpr const char* kAppearanceCodesKey = "appearance_codes";    // inside the avatar's archive
 
 std::string run_file(const std::string& run_dir) { return RunDirectory(run_dir).gaussian_avatar_config_file(); }
 
@@ -63,7 +64,8 @@ void GaussianTrainOptions::validate() const {
   FSKIN_CHECK(steps >= 0, "gaussian avatar train: steps must be >= 0, got {}", steps);
   for (const double rate : {means_learning_rate, scales_learning_rate, rotations_learning_rate, opacity_learning_rate,
                             sh_learning_rate, skinning_learning_rate, non_rigid_learning_rate, pose_learning_rate,
-                            pose_translation_learning_rate, pose_second_pass_learning_rate, shading_learning_rate}) {
+                            pose_translation_learning_rate, pose_second_pass_learning_rate, shading_learning_rate,
+                            appearance_learning_rate}) {
     FSKIN_CHECK(std::isfinite(rate) && rate > 0 && rate <= 1,
                 "gaussian avatar train: learning rates must be in (0, 1], got {}", rate);
   }
@@ -118,6 +120,10 @@ class GaussianTrainable : public Trainable {
     statistics_.reset(avatar_->size());
     // One correction per pose, shared by the views that see it.
     if (options.refine_poses) corrections_ = PoseCorrections(frame_bone_transforms(split.bone_transforms, frame_));
+    // One code per pose too: a frame's light is the same from each view.
+    if (avatar_->appearance()) {
+      appearance_ = AppearanceCodes(frame_bone_transforms(split.bone_transforms, frame_), avatar_->appearance()->dim());
+    }
     for (int64_t i = 0; i < split.size(); ++i) {
       const int64_t w = split.images.size(2), h = split.images.size(1);
       FSKIN_CHECK(w >= 11 && h >= 11, "gaussian avatar train: images must be at least 11 x 11 (SSIM), got {} x {}", w,
@@ -150,6 +156,10 @@ class GaussianTrainable : public Trainable {
       groups.push_back({avatar_->non_rigid_offset()->parameters(), options_.non_rigid_learning_rate});
     }
     if (avatar_->shading()) groups.push_back({avatar_->shading()->parameters(), options_.shading_learning_rate});
+    if (appearance_) {
+      groups.push_back({avatar_->appearance()->parameters(), options_.appearance_learning_rate});
+      groups.push_back({appearance_->parameters(), options_.appearance_learning_rate});
+    }
     if (corrections_) {
       groups.push_back({corrections_->rotation_parameters(), options_.pose_learning_rate});
       groups.push_back({corrections_->translation_parameters(), options_.pose_translation_learning_rate});
@@ -160,6 +170,9 @@ class GaussianTrainable : public Trainable {
     auto all = avatar_->parameters();
     if (corrections_) {
       for (const auto& p : corrections_->parameters()) all.push_back(p);
+    }
+    if (appearance_) {
+      for (const auto& p : appearance_->parameters()) all.push_back(p);
     }
     return all;
   }
@@ -175,6 +188,11 @@ class GaussianTrainable : public Trainable {
       corrections_->save(poses);
       model.write(kPoseCorrectionsKey, poses);
     }
+    if (appearance_) {
+      torch::serialize::OutputArchive codes;
+      appearance_->save(codes);
+      model.write(kAppearanceCodesKey, codes);
+    }
     archive.write(kGaussianArchiveKey, model);
   }
   void load(torch::serialize::InputArchive& archive) override {
@@ -189,6 +207,11 @@ class GaussianTrainable : public Trainable {
       torch::serialize::InputArchive poses;
       model.read(kPoseCorrectionsKey, poses);
       corrections_->load(poses);
+    }
+    if (appearance_) {
+      torch::serialize::InputArchive codes;
+      model.read(kAppearanceCodesKey, codes);
+      appearance_->load(codes);
     }
   }
   void to(const torch::Device& device) override {
@@ -211,8 +234,15 @@ class GaussianTrainable : public Trainable {
       corrections_->center();
       bones = corrections_->apply(frame_[i], skeleton_, size_);
     }
+    torch::Tensor code;
+    if (appearance_) {
+      // As the corrections: this frame's code alone steps, the codes stay zero-mean.
+      appearance_->forget_gradients();
+      appearance_->center();
+      code = appearance_->code(frame_[i]);
+    }
     const auto posed = avatar_->pose(bones);
-    last_ = avatar_->render(posed, cropped, background_);
+    last_ = avatar_->render(posed, cropped, background_, code);
     last_.means2d.retain_grad();
     // Density statistics in the whole picture's normalised coordinates.
     last_width_ = camera.width;
@@ -331,6 +361,7 @@ class GaussianTrainable : public Trainable {
   RiggedMesh character_;  // the rig silhouette prior draws its mesh
   std::vector<int64_t> frame_;            // per image: its pose's frame (frames_of_images)
   PoseCorrections corrections_{nullptr};  // with refine_poses
+  AppearanceCodes appearance_{nullptr};   // with avatar.appearance.dim > 0
   DensityStatistics statistics_;
   GaussianRender last_;  // the step's render, read by after_step
   int64_t last_width_ = 0, last_height_ = 0;
@@ -442,6 +473,10 @@ TrainedGaussianAvatar TrainedGaussianAvatar::load(const std::string& run_dir) {
           auto poses = checkpoint_part(archive, kPoseCorrectionsKey, run_dir, "refines poses");
           out.corrections = PoseCorrections(PoseCorrectionsImpl::read(poses));
         }
+        if (out.options.avatar.appearance.dim > 0) {
+          auto codes = checkpoint_part(archive, kAppearanceCodesKey, run_dir, "learns appearance codes");
+          out.appearance = AppearanceCodes(AppearanceCodesImpl::read(codes));
+        }
       });
   out.avatar->eval();
   return out;
@@ -457,11 +492,17 @@ RefinedPoses refined_gaussian_poses(const std::string& run_dir) {
   return refined_poses(*trained.corrections, trained.skeleton, trained.size, trained.options.data_dir, run_dir);
 }
 
+torch::Tensor TrainedGaussianAvatar::appearance_for(const torch::Tensor& given) const {
+  return appearance ? appearance->code_for(given) : torch::Tensor();
+}
+
 std::pair<torch::Tensor, torch::Tensor> TrainedGaussianAvatar::render(const torch::Tensor& bones,
                                                                       const PinholeCamera& camera,
-                                                                      const std::array<double, 3>& background) {
+                                                                      const std::array<double, 3>& background,
+                                                                      const torch::Tensor& appearance) {
   torch::NoGradGuard no_grad;
-  const auto rendered = avatar->render(bones.detach().to(torch::kCPU, torch::kFloat32), camera, background);
+  const auto rendered =
+      avatar->render(bones.detach().to(torch::kCPU, torch::kFloat32), camera, background, appearance);
   return {rendered.image.clamp(0, 1), rendered.alpha};
 }
 

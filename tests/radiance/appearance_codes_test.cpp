@@ -1,21 +1,17 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
-#include <filesystem>
-
-#include "fskin/export/image.h"
 #include "fskin/radiance/appearance_codes.h"
 #include "fskin/radiance/avatar_config.h"
 #include "fskin/radiance/avatar_evaluation.h"
 #include "fskin/radiance/avatar_training.h"
 #include "fskin/radiance/radiance_field.h"
+#include "dark_frame_dataset.h"
 #include "test_util.h"
 #include "tiny_image_dataset.h"
 
 namespace fskin {
 namespace {
-
-namespace fs = std::filesystem;
 
 RadianceField field_with_codes(int64_t dim) {
   RadianceFieldOptions options;
@@ -81,32 +77,8 @@ TEST(AppearanceCodes, CodesAreCentredPerFrameAndFoundByTheirBones) {
   testing::expect_error([&] { AppearanceCodes(bones, 0); }, {"code length must be within 1..1024"});
 }
 
-// The tiny dataset with its first training pose's subject at `scale` of its
-// brightness: one frame lit differently from the others.
-std::string dataset_with_a_dark_frame(double scale) {
-  const auto& tiny = testing::tiny_image_dataset();
-  const auto dir = testing::temp_dir("appearance_dark_frame") / "images";
-  fs::remove_all(dir);
-  fs::copy(tiny.dir, dir, fs::copy_options::recursive);
-  const ImageDataset data(dir.string());
-  const auto split = data.load_split("train");
-  for (int64_t i = 0; i < split.size(); ++i) {
-    if (split.pose_index[i].item<int64_t>() != 0) continue;
-    const auto path = (dir / "train" / "images" / image_file_name(i)).string();
-    auto image = read_png(path);
-    const auto mask = split.masks[i].contiguous();
-    const uint8_t* m = mask.data_ptr<uint8_t>();
-    for (int y = 0; y < image.height; ++y)
-      for (int x = 0; x < image.width; ++x)
-        if (m[y * image.width + x] > 127)
-          for (int c = 0; c < 3; ++c) image.pixel(x, y)[c] = static_cast<uint8_t>(image.pixel(x, y)[c] * scale);
-    write_png(path, image);
-  }
-  return dir.string();
-}
-
 TEST(AppearanceCodes, AFrameLitDifferentlyIsLearnedByItsCode) {
-  const auto data_dir = dataset_with_a_dark_frame(0.4);
+  const auto data_dir = testing::dataset_with_a_dark_frame("appearance_dark_frame", 0.4);
   std::string run;
   const auto train = [&](const std::string& name, int64_t dim) {
     auto options = testing::tiny_training(name, 150, 1024);

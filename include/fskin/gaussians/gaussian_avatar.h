@@ -30,6 +30,7 @@
 #include <string>
 
 #include "fskin/fields/voxel_skinning_field.h"
+#include "fskin/gaussians/gaussian_appearance.h"
 #include "fskin/gaussians/gaussian_shading.h"
 #include "fskin/gaussians/non_rigid_offset.h"
 #include "fskin/geometry/pinhole_camera.h"
@@ -74,6 +75,10 @@ struct GaussianAvatarOptions {
   // a learned shade of the posed normal (gaussian_shading.h: lights that stay
   // where they are while the body moves).
   std::string shading = "none";
+  // Per-frame appearance codes' network (gaussians/gaussian_appearance.h);
+  // dim 0: none. The codes themselves belong to the training frames and live
+  // with the run (GaussianTrainable, radiance/appearance_codes.h).
+  GaussianAppearanceOptions appearance;
   void validate() const;
 };
 
@@ -130,6 +135,10 @@ class GaussianAvatarImpl : public torch::nn::Module {
   const torch::Tensor& sh_dc() const { return sh_dc_; }
   const torch::Tensor& sh_rest() const { return sh_rest_; }
   torch::Tensor sh() const;  // both, [N, (degree + 1)^2, 3]
+  // sh() without gradients, the appearance network's offset at code zero
+  // (the frames' average appearance) folded into degree 0: what exports
+  // write, which have no codes. sh() without appearance codes.
+  torch::Tensor average_appearance_sh();
 
   // Skinning weights [N, J] of the Gaussians (rows sum to 1).
   torch::Tensor skinning_weights();
@@ -140,12 +149,14 @@ class GaussianAvatarImpl : public torch::nn::Module {
   // A picture of the posed Gaussians [H, W, 3] and its alpha over a uniform
   // background; differentiable in the parameters (and in bones when they
   // require gradients).
+  // With appearance codes, `appearance` is the frame's code [dim]
+  // (undefined: code zero, the frames' average appearance).
   GaussianRender render(const torch::Tensor& bones, const PinholeCamera& camera,
-                        const std::array<double, 3>& background);
+                        const std::array<double, 3>& background, const torch::Tensor& appearance = {});
   // The same for Gaussians already posed (pose(bones)), so that a step drawing
   // its pose twice or reading its centre poses once.
   GaussianRender render(const PosedGaussians& posed, const PinholeCamera& camera,
-                        const std::array<double, 3>& background);
+                        const std::array<double, 3>& background, const torch::Tensor& appearance = {});
 
   // The per-Gaussian weights of the "surface" source [N, J] (a buffer, not
   // trained); [N, 0] with the "grid" source. Density control gathers its rows
@@ -162,6 +173,9 @@ class GaussianAvatarImpl : public torch::nn::Module {
   // The shading's lighting; empty (nullptr) with shading "none".
   GaussianShading& shading() { return shading_; }
   const GaussianShading& shading() const { return shading_; }
+  // The appearance codes' network; empty (nullptr) with appearance.dim 0.
+  GaussianAppearance& appearance() { return appearance_; }
+  const GaussianAppearance& appearance() const { return appearance_; }
 
   // [N, 6]: per Gaussian the canonical mesh point it was sampled on and the
   // face's unit normal there; [N, 0] unless options().anchored (a buffer).
@@ -192,6 +206,7 @@ class GaussianAvatarImpl : public torch::nn::Module {
   std::shared_ptr<FrozenSkinningField> skinning_;  // the "grid" source only
   NonRigidOffset non_rigid_{nullptr};
   GaussianShading shading_{nullptr};
+  GaussianAppearance appearance_{nullptr};
   torch::Tensor means_, log_scales_, rotations_, opacity_logits_, sh_dc_, sh_rest_, surface_weights_, skinning_corrections_,
       surface_anchors_;
 };

@@ -23,7 +23,8 @@
 // learned skinning corrections has its weights blended the same way (the
 // rig's own weights otherwise, which the Gaussians carry unchanged). Shading
 // (gaussian_shading.h) is left out, as in every export: the colours are the
-// albedo. Non-rigid offsets, which depend on the pose, are not in a mesh.
+// albedo; with appearance codes (gaussian_appearance.h), at code zero, the
+// frames' average. Non-rigid offsets, which depend on the pose, are not in a mesh.
 #include <torch/types.h>
 
 #include <array>

@@ -21,6 +21,7 @@
 #include "fskin/engine/stop_signal.h"
 #include "fskin/gaussians/density_control.h"
 #include "fskin/gaussians/gaussian_avatar.h"
+#include "fskin/radiance/appearance_codes.h"
 #include "fskin/radiance/pose_correction.h"
 #include "fskin/radiance/refined_poses.h"
 
@@ -45,6 +46,9 @@ struct GaussianTrainOptions {
   double skinning_learning_rate = 1e-3;  // the learned skinning corrections (avatar.learned_skinning)
   double non_rigid_learning_rate = 1e-3;  // the non-rigid offset's network (avatar.non_rigid)
   double shading_learning_rate = 2.5e-3;  // the shading's lighting (avatar.shading)
+  // The appearance codes and their network (avatar.appearance.dim > 0), the
+  // non-rigid offset's rate.
+  double appearance_learning_rate = 1e-2;
   // Cosine decay of every rate to decay_factor x over the last decay_fraction of the steps.
   double decay_fraction = 1.0, decay_factor = 0.1;
   double ssim_weight = 0.2;
@@ -172,12 +176,20 @@ struct TrainedGaussianAvatar {
   PoseCorrections corrections{nullptr};
   Skeleton skeleton;
   double size = 1;
+  // With appearance codes (avatar.appearance.dim > 0): the training frames'
+  // codes; null without.
+  AppearanceCodes appearance{nullptr};
   static TrainedGaussianAvatar load(const std::string& run_dir);
   // The bones an image of any split is rendered with (PoseCorrectionsImpl::bones_for).
   torch::Tensor bones_for(const torch::Tensor& given) const;
-  // (rgb [H, W, 3] in [0, 1], alpha [H, W]) of bones [J, 4, 4] seen by camera, without gradients.
+  // The appearance code of an image whose dataset bones are `given`: its
+  // training frame's, undefined (code zero) for any other pose or without codes.
+  torch::Tensor appearance_for(const torch::Tensor& given) const;
+  // (rgb [H, W, 3] in [0, 1], alpha [H, W]) of bones [J, 4, 4] seen by camera,
+  // with an appearance code (appearance_for; undefined: code zero), without gradients.
   std::pair<torch::Tensor, torch::Tensor> render(const torch::Tensor& bones, const PinholeCamera& camera,
-                                                 const std::array<double, 3>& background);
+                                                 const std::array<double, 3>& background,
+                                                 const torch::Tensor& appearance = {});
 };
 
 }  // namespace fskin
