@@ -1,6 +1,9 @@
 #include "fskin/radiance/pose_fitting.h"
 
+#include <array>
 #include <cmath>
+#include <memory>
+#include <vector>
 
 #include "fskin/core/error.h"
 #include "fskin/radiance/image_rays.h"
@@ -10,8 +13,8 @@ namespace fskin {
 
 void PoseFittingOptions::validate() const {
   FSKIN_CHECK(steps >= 0 && rays >= 1, "pose fitting: steps must be >= 0 and rays >= 1, got {} and {}", steps, rays);
-  FSKIN_CHECK(learning_rate > 0 && learning_rate <= 1, "pose fitting: the learning rate {} must be in (0, 1]",
-              learning_rate);
+  for (const double rate : {learning_rate, translation_learning_rate})
+    FSKIN_CHECK(rate > 0 && rate <= 1, "pose fitting: the learning rate {} must be in (0, 1]", rate);
   FSKIN_CHECK(std::isfinite(regularizer) && regularizer >= 0, "pose fitting: the regulariser must be >= 0, got {}",
               regularizer);
 }
@@ -37,8 +40,16 @@ torch::Tensor fit_pose(const torch::Tensor& bones, const Skeleton& skeleton, dou
     }
   } freeze(frozen);
   PoseCorrections correction(given.unsqueeze(0));
-  torch::optim::Adam adam(correction->parameters(), torch::optim::AdamOptions(options.learning_rate));
+  const std::array<double, 2> rates{options.learning_rate, options.translation_learning_rate};
+  std::vector<torch::optim::OptimizerParamGroup> groups;
+  groups.emplace_back(correction->rotation_parameters(), std::make_unique<torch::optim::AdamOptions>(rates[0]));
+  groups.emplace_back(correction->translation_parameters(), std::make_unique<torch::optim::AdamOptions>(rates[1]));
+  torch::optim::Adam adam(std::move(groups), torch::optim::AdamOptions(rates[0]));
   for (int64_t step = 0; step < options.steps; ++step) {
+    // Cosine decay to zero: the last steps settle instead of stepping about the optimum.
+    const double decay = 0.5 * (1 + std::cos(M_PI * static_cast<double>(step) / static_cast<double>(options.steps)));
+    for (size_t g = 0; g < rates.size(); ++g)
+      static_cast<torch::optim::AdamOptions&>(adam.param_groups()[g].options()).lr(rates[g] * decay);
     const auto loss =
         image_loss(correction->apply(0, skeleton, size), step) + options.regularizer * correction->squared_size({0});
     adam.zero_grad();
