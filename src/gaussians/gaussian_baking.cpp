@@ -50,9 +50,9 @@ BakedSurface bake_gaussians_at(GaussianAvatarImpl& avatar, const torch::Tensor& 
   const auto opacities = torch::sigmoid(avatar.opacity_logits().detach()).to(torch::kCPU, torch::kFloat64);
   const auto sh = avatar.sh().detach().to(torch::kCPU, torch::kFloat64);
   // With appearance codes, the colours at code zero (the frames' average).
-  const auto appearance = avatar.appearance()
-                              ? avatar.appearance()->forward(avatar.means().detach(), {}).to(torch::kCPU, torch::kFloat64)
-                              : torch::Tensor();
+  torch::Tensor appearance;
+  if (avatar.appearance())
+    appearance = avatar.appearance()->forward(avatar.means().detach(), {}).to(torch::kCPU, torch::kFloat64);
   const auto skinning = blend_weights ? avatar.skinning_weights().detach().to(torch::kCPU, torch::kFloat64)
                                       : torch::Tensor();
   const int64_t n = avatar.size(), k = std::min(options.neighbours, n), m = points.size(0);
