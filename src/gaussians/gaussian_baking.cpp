@@ -48,11 +48,8 @@ BakedSurface bake_gaussians_at(GaussianAvatarImpl& avatar, const torch::Tensor& 
   const auto precisions =
       gaussian_covariances(inverse_scales, avatar.rotations().detach().to(torch::kCPU, torch::kFloat64));
   const auto opacities = torch::sigmoid(avatar.opacity_logits().detach()).to(torch::kCPU, torch::kFloat64);
-  const auto sh = avatar.sh().detach().to(torch::kCPU, torch::kFloat64);
-  // With appearance codes, the colours at code zero (the frames' average).
-  torch::Tensor appearance;
-  if (avatar.appearance())
-    appearance = avatar.appearance()->forward(avatar.means().detach(), {}).to(torch::kCPU, torch::kFloat64);
+  // With appearance codes, the colours at code zero (the frames' average), as exports write them.
+  const auto sh = avatar.average_appearance_sh().to(torch::kCPU, torch::kFloat64);
   const auto skinning = blend_weights ? avatar.skinning_weights().detach().to(torch::kCPU, torch::kFloat64)
                                       : torch::Tensor();
   const int64_t n = avatar.size(), k = std::min(options.neighbours, n), m = points.size(0);
@@ -89,9 +86,7 @@ BakedSurface bake_gaussians_at(GaussianAvatarImpl& avatar, const torch::Tensor& 
     // As the rasteriser: under 1/255 a Gaussian adds nothing; only the layer below the origin counts.
     alpha = torch::where((alpha < 1.0 / 255) | (t < 0) | (t > 2 * height) | has_normal.logical_not(),
                          torch::zeros_like(alpha), alpha);
-    auto colors = spherical_harmonics_color(sh.index_select(0, flat), dk.reshape({-1, 3}));
-    if (appearance.defined()) colors = (colors + appearance.index_select(0, flat)).clamp_min(0);
-    colors = colors.view({c, k, 3});
+    const auto colors = spherical_harmonics_color(sh.index_select(0, flat), dk.reshape({-1, 3})).view({c, k, 3});
     // Front to back along the ray.
     const auto order = std::get<1>(t.sort(1));
     const auto alpha_sorted = alpha.gather(1, order);
