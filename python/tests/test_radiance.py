@@ -212,7 +212,8 @@ def test_gaussian_avatars_train_evaluate_render_and_export(tmp_path):
     summary = fskin.train_gaussian_avatar(
         str(tmp_path / "noisy"), refined_run, steps=5,
         settings=["model.gaussians.initial=300", "pose_refinement.enabled=true", "pose_refinement.learning_rate=0.01",
-                  "pose_refinement.first_pass_steps=5", "model.shading=irradiance"])
+                  "pose_refinement.first_pass_steps=5", "pose_refinement.fit_steps=5",
+                  "model.shading=irradiance"])
     assert (summary["pose_pass_first_step"], summary["pose_pass_last_step"]) == (0, 5)  # then the run's 5 steps
     refined = fskin.refined_poses(refined_run)
     assert refined["given"].shape == refined["refined"].shape == (2, body.num_joints, 4, 4)

@@ -20,7 +20,9 @@ std::string RunDirectory::config_file() const { return file("config.json"); }
 std::string RunDirectory::avatar_config_file() const { return file("avatar.json"); }
 std::string RunDirectory::gaussian_avatar_config_file() const { return file("gaussian_avatar.json"); }
 std::string RunDirectory::character_file() const { return file("canonical.npz"); }
-std::string RunDirectory::pose_pass_directory() const { return file("pose_pass"); }
+std::string RunDirectory::pose_pass_directory(int pass) const {
+  return pass <= 1 ? file("pose_pass") : (fs::path(path_) / ("pose_pass_" + std::to_string(pass))).string();
+}
 std::string RunDirectory::log_file() const { return file("log.jsonl"); }
 std::string RunDirectory::validation_log_file() const { return file("validation.jsonl"); }
 std::string RunDirectory::best_scores_file() const { return file("best.json"); }

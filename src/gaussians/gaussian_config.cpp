@@ -66,6 +66,7 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/regularizer", pose_regularizer),
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/first_pass_steps", pose_first_pass_steps),
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/second_pass_learning_rate", pose_second_pass_learning_rate),
+    FSKIN_GAUSSIAN_FIELD("/pose_refinement/fit_steps", pose_fit_steps),
     FSKIN_GAUSSIAN_FIELD("/losses/ssim/weight", ssim_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/mask/weight", mask_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/skinning/weight", skinning_weight),
@@ -138,6 +139,8 @@ GaussianTrainOptions read_gaussian_run_config(const std::string& path, const std
   if (!document.contains(json::json_pointer("/losses/rig_silhouette/weight"))) base.rig_silhouette_weight = 0;
   // ... and those written before the unseen view's interval drew it on every step.
   if (!document.contains(json::json_pointer("/losses/unseen_view/every"))) base.unseen_view_every = 1;
+  // ... and those written before training poses were fitted refined them in two passes.
+  if (!document.contains(json::json_pointer("/pose_refinement/fit_steps"))) base.pose_fit_steps = 0;
   // ... and those written before the rig silhouette prior shared the unseen view kept its angle with the entropy's.
   const json::json_pointer old_degrees("/losses/alpha_entropy/degrees");
   if (document.is_object() && document.contains(old_degrees)) {

@@ -2,26 +2,102 @@
 
 #include <torch/torch.h>
 
+#include "fskin/core/error.h"
 #include "fskin/radiance/image_rays.h"
+#include "fskin/util/progress.h"
 
 namespace fskin {
+
+namespace {
+
+// The fitting loss of one pose seen by images of a split: per image, the mean
+// L1 on colour plus mask_weight x the mean L1 between alpha and mask, over the
+// image's mask box grown by 20 %; the mean over the images.
+class ViewsLoss {
+ public:
+  ViewsLoss(const ImageSplit& split, const std::vector<int64_t>& images, const std::array<double, 3>& background,
+            double mask_weight)
+      : background_(background), mask_weight_(mask_weight) {
+    FSKIN_CHECK(!images.empty(), "gaussian pose fitting: no images to fit the pose to");
+    for (const int64_t image : images) {
+      FSKIN_CHECK(image >= 0 && image < split.size(), "gaussian pose fitting: image {} is outside the split's {}",
+                  image, split.size());
+      const auto box = mask_box(split.masks[image], 0.2);  // (u0, v0, u1, v1)
+      const auto crop = [&](const torch::Tensor& t) { return t.slice(0, box[1], box[3]).slice(1, box[0], box[2]); };
+      views_.push_back({split.cameras[static_cast<size_t>(image)].cropped(box[0], box[1], box[2], box[3]),
+                        crop(split.images[image]).to(torch::kFloat32) / 255,
+                        crop(split.masks[image]).to(torch::kFloat32) / 255});
+    }
+  }
+
+  torch::Tensor operator()(GaussianAvatarImpl& avatar, const torch::Tensor& bones) const {
+    const auto posed = avatar.pose(bones);  // once for every view
+    torch::Tensor loss;
+    for (const auto& view : views_) {
+      const auto rendered = avatar.render(posed, view.camera, background_);
+      const auto term =
+          (rendered.image - view.target).abs().mean() + mask_weight_ * (rendered.alpha - view.mask).abs().mean();
+      loss = loss.defined() ? loss + term : term;
+    }
+    return loss / static_cast<double>(views_.size());
+  }
+
+ private:
+  struct View {
+    PinholeCamera camera;
+    torch::Tensor target, mask;  // [h, w, 3], [h, w] in [0, 1], cut to the box
+  };
+  std::vector<View> views_;
+  std::array<double, 3> background_;
+  double mask_weight_;
+};
+
+}  // namespace
 
 torch::Tensor fit_gaussian_pose_to_image(GaussianAvatarImpl& avatar, const ImageSplit& split, int64_t image,
                                          const torch::Tensor& bones, const std::array<double, 3>& background,
                                          const Skeleton& skeleton, double size, double mask_weight,
                                          const PoseFittingOptions& options) {
+  return fit_gaussian_pose_to_images(avatar, split, {image}, bones, background, skeleton, size, mask_weight, options);
+}
+
+torch::Tensor fit_gaussian_pose_to_images(GaussianAvatarImpl& avatar, const ImageSplit& split,
+                                          const std::vector<int64_t>& images, const torch::Tensor& bones,
+                                          const std::array<double, 3>& background, const Skeleton& skeleton,
+                                          double size, double mask_weight, const PoseFittingOptions& options) {
   options.validate();
   if (options.steps == 0) return bones.detach().to(torch::kCPU, torch::kFloat32).contiguous();  // no crops to make
-  const auto box = mask_box(split.masks[image], 0.2);  // (u0, v0, u1, v1)
-  const auto camera = split.cameras[static_cast<size_t>(image)].cropped(box[0], box[1], box[2], box[3]);
-  const auto crop = [&](const torch::Tensor& t) { return t.slice(0, box[1], box[3]).slice(1, box[0], box[2]); };
-  const auto target = crop(split.images[image]).to(torch::kFloat32) / 255;
-  const auto mask = crop(split.masks[image]).to(torch::kFloat32) / 255;
+  const ViewsLoss loss(split, images, background, mask_weight);
   return fit_pose(bones, skeleton, size, options, avatar.parameters(),
-                  [&](const torch::Tensor& corrected, int64_t) {
-                    const auto rendered = avatar.render(corrected, camera, background);
-                    return (rendered.image - target).abs().mean() + mask_weight * (rendered.alpha - mask).abs().mean();
-                  });
+                  [&](const torch::Tensor& corrected, int64_t) { return loss(avatar, corrected); });
+}
+
+bool fit_gaussian_training_poses(GaussianAvatarImpl& avatar, const ImageSplit& split,
+                                 const std::vector<int64_t>& frame_of, PoseCorrectionsImpl& corrections,
+                                 const std::array<double, 3>& background, const Skeleton& skeleton, double size,
+                                 double mask_weight, const PoseFittingOptions& options, bool progress,
+                                 const StopSignal* stop) {
+  options.validate();
+  FSKIN_CHECK(static_cast<int64_t>(frame_of.size()) == split.size(),
+              "gaussian pose fitting: {} frame numbers for {} images", frame_of.size(), split.size());
+  if (options.steps == 0) return true;
+  std::vector<std::vector<int64_t>> views(static_cast<size_t>(corrections.frames()));
+  for (size_t i = 0; i < frame_of.size(); ++i) {
+    FSKIN_CHECK(frame_of[i] >= 0 && frame_of[i] < corrections.frames(),
+                "gaussian pose fitting: image {} sees frame {} of {}", i, frame_of[i], corrections.frames());
+    views[static_cast<size_t>(frame_of[i])].push_back(static_cast<int64_t>(i));
+  }
+  ProgressBar bar("fitting the training poses", corrections.frames(), progress);
+  for (int64_t f = 0; f < corrections.frames(); ++f) {
+    if (stop && stop->requested()) return false;
+    if (!views[static_cast<size_t>(f)].empty()) {
+      const ViewsLoss loss(split, views[static_cast<size_t>(f)], background, mask_weight);
+      fit_pose_correction(corrections, f, skeleton, size, options, avatar.parameters(),
+                          [&](const torch::Tensor& corrected, int64_t) { return loss(avatar, corrected); });
+    }
+    bar.advance();
+  }
+  return true;
 }
 
 }  // namespace fskin

@@ -18,6 +18,7 @@
 #include "fskin/engine/trainer.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/gaussians/gaussian_config.h"
+#include "fskin/gaussians/gaussian_pose_fitting.h"
 #include "fskin/gaussians/opacity_prior.h"
 #include "fskin/gaussians/rig_silhouette_prior.h"
 #include "fskin/gaussians/surface_layer.h"
@@ -92,6 +93,8 @@ void GaussianTrainOptions::validate() const {
               "gaussian avatar train: pose_refinement.regularizer must be >= 0, got {}", pose_regularizer);
   FSKIN_CHECK(pose_first_pass_steps >= 0, "gaussian avatar train: pose_refinement.first_pass_steps must be >= 0, got {}",
               pose_first_pass_steps);
+  FSKIN_CHECK(pose_fit_steps >= 0, "gaussian avatar train: pose_refinement.fit_steps must be >= 0, got {}",
+              pose_fit_steps);
   FSKIN_CHECK(std::isfinite(skinning_weight) && skinning_weight >= 0,
               "gaussian avatar train: the skinning prior's weight must be >= 0");
   FSKIN_CHECK(std::isfinite(crop_margin) && crop_margin <= 10,
@@ -107,9 +110,12 @@ namespace {
 // The Gaussian avatar as the engine trains it (engine/trainable.h).
 class GaussianTrainable : public Trainable {
  public:
+  // poses_frozen: the pose corrections are applied as they are, not learned
+  // (the pass after the training poses were fitted).
   GaussianTrainable(GaussianAvatar avatar, const GaussianTrainOptions& options, const ImageDataset& data,
-                    const ImageSplit& split)
+                    const ImageSplit& split, bool poses_frozen = false)
       : avatar_(std::move(avatar)),
+        poses_frozen_(poses_frozen),
         options_(options),
         split_(split),
         background_(data.background()),
@@ -160,7 +166,7 @@ class GaussianTrainable : public Trainable {
       groups.push_back({avatar_->appearance()->parameters(), options_.appearance_learning_rate});
       groups.push_back({appearance_->parameters(), options_.appearance_learning_rate});
     }
-    if (corrections_) {
+    if (corrections_ && !poses_frozen_) {
       groups.push_back({corrections_->rotation_parameters(), options_.pose_learning_rate});
       groups.push_back({corrections_->translation_parameters(), options_.pose_translation_learning_rate});
     }
@@ -168,7 +174,7 @@ class GaussianTrainable : public Trainable {
   }
   std::vector<torch::Tensor> parameters() override {
     auto all = avatar_->parameters();
-    if (corrections_) {
+    if (corrections_ && !poses_frozen_) {
       for (const auto& p : corrections_->parameters()) all.push_back(p);
     }
     if (appearance_) {
@@ -227,7 +233,9 @@ class GaussianTrainable : public Trainable {
     // The camera of the box: the same rays, the picture cut to it.
     const PinholeCamera cropped = camera.cropped(box[0], box[1], box[2], box[3]);
     torch::Tensor bones = split_.bone_transforms[i];
-    if (corrections_) {
+    if (corrections_ && poses_frozen_) {
+      bones = corrections_->apply(frame_[i], skeleton_, size_).detach();
+    } else if (corrections_) {
       // Only this step's frame gets a gradient (Adam leaves the others be);
       // the corrections stay zero-mean over the frames (PoseCorrectionsImpl::center).
       corrections_->forget_gradients();
@@ -300,7 +308,7 @@ class GaussianTrainable : public Trainable {
         out.terms.emplace_back("rig_silhouette", prior.detach());
       }
     }
-    if (corrections_) {
+    if (corrections_ && !poses_frozen_) {
       const auto pose_loss = options_.pose_regularizer * corrections_->squared_size({frame_[i]});
       out.total = out.total + pose_loss;
       out.terms.emplace_back("pose", pose_loss.detach());
@@ -352,6 +360,7 @@ class GaussianTrainable : public Trainable {
 
  private:
   GaussianAvatar avatar_;
+  bool poses_frozen_;
   const GaussianTrainOptions& options_;
   const ImageSplit& split_;
   std::vector<std::array<int64_t, 4>> boxes_;  // per image, the box it is rendered in
@@ -398,42 +407,68 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
   save_canonical_character(data.character(), run.character_file());
 
   GaussianTrainSummary summary;
-  const bool two_passes = options.refines_in_two_passes();
-  // The second pass's poses start from the first pass's: that pass runs
-  // first, to its end, unless the second has begun (a resumed run).
-  PoseCorrections first_pass_poses{nullptr};
-  if (two_passes && !(options.resume && !run.checkpoints().empty())) {
-    const RunDirectory pose_pass(run.pose_pass_directory());
-    if (!options.resume && fs::exists(pose_pass.path())) fs::remove_all(pose_pass.path());  // a fresh run's
-    create_output_directory(pose_pass.path());
-    GaussianTrainOptions first = options;
-    first.steps = options.pose_first_pass_steps;
-    torch::manual_seed(options.seed);
-    GaussianAvatar first_avatar(data.character(), options.avatar_options(), options.seed);
-    GaussianTrainable first_trainable(first_avatar, first, data, split);
-    const auto result =
-        Trainer(pose_pass, trainer_settings(first, "gaussian avatar train, pass 1 of 2 (poses)")).run(first_trainable);
-    summary.pose_pass_first_step = result.first_step;
-    summary.pose_pass_last_step = result.last_step;
-    summary.seconds += result.seconds;
-    if (result.stopped) {
-      summary.stopped = true;
-      return summary;
+  // Pose refinement's passes before the run's own (gaussian_training.h): the
+  // first, and with fitting a second, each in a run directory of its own;
+  // each starts fresh Gaussians from the previous pass's poses. They run to
+  // their ends first, unless the run's own pass has begun (a resumed run).
+  const bool fits = options.fits_training_poses();
+  const int pose_passes = !options.refines_in_two_passes() ? 0 : fits ? 2 : 1;
+  const int passes = pose_passes + 1;
+  const auto label = [passes](int pass) {
+    return passes == 1 ? std::string("gaussian avatar train")
+                       : fmt::format("gaussian avatar train, pass {} of {}{}", pass, passes,
+                                     pass < passes ? " (poses)" : "");
+  };
+  PoseCorrections pose_pass_poses{nullptr};
+  if (pose_passes > 0 && !(options.resume && !run.checkpoints().empty())) {
+    for (int pass = 1; pass <= pose_passes; ++pass) {
+      const RunDirectory pose_pass(run.pose_pass_directory(pass));
+      if (!options.resume && fs::exists(pose_pass.path())) fs::remove_all(pose_pass.path());  // a fresh run's
+      create_output_directory(pose_pass.path());
+      GaussianTrainOptions pass_options = options;
+      pass_options.steps = pass == 1 ? options.pose_first_pass_steps : options.steps;
+      if (pass > 1) pass_options.pose_learning_rate = options.pose_second_pass_learning_rate;
+      torch::manual_seed(options.seed);
+      GaussianAvatar pass_avatar(data.character(), options.avatar_options(), options.seed);
+      GaussianTrainable pass_trainable(pass_avatar, pass_options, data, split);
+      if (pose_pass_poses) pass_trainable.corrections()->assign(*pose_pass_poses);
+      const auto result = Trainer(pose_pass, trainer_settings(pass_options, label(pass))).run(pass_trainable);
+      if (pass == 1) {
+        summary.pose_pass_first_step = result.first_step;
+        summary.pose_pass_last_step = result.last_step;
+      }
+      summary.seconds += result.seconds;
+      if (result.stopped) {
+        summary.stopped = true;
+        return summary;
+      }
+      pose_pass_poses = pass_trainable.corrections();
+      if (pass == pose_passes && fits) {
+        PoseFittingOptions fitting;
+        fitting.steps = options.pose_fit_steps;
+        const auto& character = data.character();
+        const double size = character_size(character.mesh.vertices, "gaussian avatar train: canonical vertices");
+        if (!fit_gaussian_training_poses(*pass_avatar, split, frames_of_images(split.bone_transforms),
+                                         *pose_pass_poses, data.background(), character.skeleton, size,
+                                         options.mask_weight, fitting, options.progress, options.stop)) {
+          summary.stopped = true;  // a resumed run fits again, from the pass's end
+          return summary;
+        }
+        pose_pass_poses->center();  // the gauge training keeps (PoseCorrectionsImpl::center)
+      }
     }
-    first_pass_poses = first_trainable.corrections();
   }
 
-  GaussianTrainOptions second = options;
-  if (two_passes) second.pose_learning_rate = options.pose_second_pass_learning_rate;
-  second.resume = options.resume && !run.checkpoints().empty();  // none yet: the pass starts
+  GaussianTrainOptions last = options;
+  if (pose_passes > 0) last.pose_learning_rate = options.pose_second_pass_learning_rate;
+  last.resume = options.resume && !run.checkpoints().empty();  // none yet: the pass starts
   torch::manual_seed(options.seed);
   GaussianAvatar avatar(data.character(), options.avatar_options(), options.seed);
-  GaussianTrainable trainable(avatar, second, data, split);
-  // A resumed second pass reads its poses from its checkpoint instead.
-  if (first_pass_poses) trainable.corrections()->assign(*first_pass_poses);
-  const auto result =
-      Trainer(run, trainer_settings(second, two_passes ? "gaussian avatar train, pass 2 of 2" : "gaussian avatar train"))
-          .run(trainable);
+  // After fitting, the run's own pass keeps the fitted poses as they are.
+  GaussianTrainable trainable(avatar, last, data, split, /*poses_frozen=*/fits);
+  // A resumed last pass reads its poses from its checkpoint instead.
+  if (pose_pass_poses) trainable.corrections()->assign(*pose_pass_poses);
+  const auto result = Trainer(run, trainer_settings(last, label(passes))).run(trainable);
 
   summary.first_step = result.first_step;
   summary.last_step = result.last_step;
@@ -456,10 +491,10 @@ TrainedGaussianAvatar TrainedGaussianAvatar::load(const std::string& run_dir) {
   TrainedGaussianAvatar out;
   out.options = read_gaussian_run_config(config_file, run_dir);
   FSKIN_CHECK(!(out.options.refines_in_two_passes() && run.checkpoints().empty() &&
-                fs::exists(run.pose_pass_directory())),
-              "{}: the run stopped in its first pass of pose refinement ({}), before the avatar itself; "
+                fs::exists(run.pose_pass_directory(1))),
+              "{}: the run stopped in a pass of pose refinement (in {}), before the avatar itself; "
               "`fskin avatar train --data {} --out {} --representation gaussians --resume` finishes it",
-              run_dir, run.pose_pass_directory(), out.options.data_dir, run_dir);
+              run_dir, run.pose_pass_directory(1), out.options.data_dir, run_dir);
   const auto character = load_canonical_character(run.character_file());
   out.avatar = GaussianAvatar(character, out.options.avatar_options(), out.options.seed);
   if (out.options.refine_poses) {

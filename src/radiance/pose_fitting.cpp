@@ -25,6 +25,18 @@ torch::Tensor fit_pose(const torch::Tensor& bones, const Skeleton& skeleton, dou
   options.validate();
   const auto given = bones.detach().to(torch::kCPU, torch::kFloat32).contiguous();
   if (options.steps == 0) return given;
+  PoseCorrections correction(given.unsqueeze(0));
+  fit_pose_correction(*correction, 0, skeleton, size, options, frozen, image_loss);
+  return correction->corrected(skeleton, size)[0];
+}
+
+void fit_pose_correction(PoseCorrectionsImpl& corrections, int64_t frame, const Skeleton& skeleton, double size,
+                         const PoseFittingOptions& options, const std::vector<torch::Tensor>& frozen,
+                         const PoseImageLoss& image_loss) {
+  options.validate();
+  FSKIN_CHECK(frame >= 0 && frame < corrections.frames(), "pose fitting: frame {} of {} frames", frame,
+              corrections.frames());
+  if (options.steps == 0) return;
   // The frozen avatar: only the correction learns (restored on every exit).
   struct Freeze {
     std::vector<torch::Tensor> parameters;
@@ -39,24 +51,25 @@ torch::Tensor fit_pose(const torch::Tensor& bones, const Skeleton& skeleton, dou
       for (size_t k = 0; k < parameters.size(); ++k) parameters[k].requires_grad_(required[k]);
     }
   } freeze(frozen);
-  PoseCorrections correction(given.unsqueeze(0));
+  const auto f = static_cast<size_t>(frame);
   const std::array<double, 2> rates{options.learning_rate, options.translation_learning_rate};
   std::vector<torch::optim::OptimizerParamGroup> groups;
-  groups.emplace_back(correction->rotation_parameters(), std::make_unique<torch::optim::AdamOptions>(rates[0]));
-  groups.emplace_back(correction->translation_parameters(), std::make_unique<torch::optim::AdamOptions>(rates[1]));
+  groups.emplace_back(std::vector<torch::Tensor>{corrections.rotation_parameters()[f]},
+                      std::make_unique<torch::optim::AdamOptions>(rates[0]));
+  groups.emplace_back(std::vector<torch::Tensor>{corrections.translation_parameters()[f]},
+                      std::make_unique<torch::optim::AdamOptions>(rates[1]));
   torch::optim::Adam adam(std::move(groups), torch::optim::AdamOptions(rates[0]));
   for (int64_t step = 0; step < options.steps; ++step) {
     // Cosine decay to zero: the last steps settle instead of stepping about the optimum.
     const double decay = 0.5 * (1 + std::cos(M_PI * static_cast<double>(step) / static_cast<double>(options.steps)));
     for (size_t g = 0; g < rates.size(); ++g)
       static_cast<torch::optim::AdamOptions&>(adam.param_groups()[g].options()).lr(rates[g] * decay);
-    const auto loss =
-        image_loss(correction->apply(0, skeleton, size), step) + options.regularizer * correction->squared_size({0});
+    const auto loss = image_loss(corrections.apply(frame, skeleton, size), step) +
+                      options.regularizer * corrections.squared_size({frame});
     adam.zero_grad();
     loss.backward();
     adam.step();
   }
-  return correction->corrected(skeleton, size)[0];
 }
 
 torch::Tensor fit_pose_to_image(Avatar& avatar, const ImageSplit& split, int64_t image, const torch::Tensor& bones,

@@ -124,6 +124,34 @@ TEST(GaussianPoseFitting, FitsANoisyPoseToItsImageWithTheGaussiansFrozen) {
   // Through the evaluation, recorded in its JSON.
   const auto scores = evaluate_gaussian_avatar_run(options.out_dir, "", "novel_pose", 1, false, {2});
   EXPECT_EQ(scores.pose_fitting_steps, 2);
+
+  // Every training pose at once, each fitted to all its views, in place in
+  // the learned corrections (what the two passes do between them).
+  const auto frame_of = frames_of_images(split.bone_transforms);
+  const auto exact_frames = frame_bone_transforms(split.bone_transforms, frame_of);
+  std::vector<torch::Tensor> noisy_frames;
+  for (int64_t f = 0; f < exact_frames.size(0); ++f)
+    noisy_frames.push_back(testing::noisy_bones(exact_frames[f], skeleton, size));
+  PoseCorrections corrections(torch::stack(noisy_frames));
+  const auto given_error = pose_error(corrections->given_bones(), exact_frames, skeleton, size);
+  {
+    StopSignal stop;
+    StopSignal::request();  // before the first frame: nothing fitted
+    EXPECT_FALSE(fit_gaussian_training_poses(*trained.avatar, split, frame_of, *corrections, data.background(),
+                                             skeleton, size, 0.5, fitting, false, &stop));
+    EXPECT_EQ(corrections->rotations().abs().max().item<double>(), 0);
+  }
+  EXPECT_TRUE(fit_gaussian_training_poses(*trained.avatar, split, frame_of, *corrections, data.background(), skeleton,
+                                          size, 0.5, fitting, false));
+  const auto fitted_error = pose_error(corrections->corrected(skeleton, size), exact_frames, skeleton, size);
+  EXPECT_LT(fitted_error.joint_distance, 0.8 * given_error.joint_distance)
+      << given_error.joint_distance << " -> " << fitted_error.joint_distance;
+  EXPECT_TRUE(torch::equal(trained.avatar->means(), means));
+  // Frame numbers that do not match the split are named.
+  testing::expect_error([&] {
+    fit_gaussian_training_poses(*trained.avatar, split, {0}, *corrections, data.background(), skeleton, size, 0.5,
+                                fitting, false);
+  }, {"frame numbers"});
 }
 
 TEST(GaussianPoseRefinement, TheRootShiftStepsAtItsOwnRate) {
@@ -142,6 +170,7 @@ TEST(GaussianPoseRefinement, TheRootShiftStepsAtItsOwnRate) {
 TEST(GaussianPoseRefinement, TheSecondPassStartsFreshGaussiansFromTheFirstPassPoses) {
   auto options = tiny_refinement("gaussian_pose_two_passes", 20);
   options.pose_first_pass_steps = 40;
+  options.pose_fit_steps = 0;  // two passes, without fitting between them
   options.pose_second_pass_learning_rate = 1e-9;  // the second pass keeps the first's poses
   const RunDirectory run(options.out_dir), pose_pass(run.pose_pass_directory());
   {
@@ -155,7 +184,7 @@ TEST(GaussianPoseRefinement, TheSecondPassStartsFreshGaussiansFromTheFirstPassPo
     EXPECT_EQ(pose_pass.checkpoints().size(), 1u);
     EXPECT_TRUE(run.checkpoints().empty());
     testing::expect_error([&] { TrainedGaussianAvatar::load(options.out_dir); },
-                          {options.out_dir, "stopped in its first pass of pose refinement", "--resume"});
+                          {options.out_dir, "stopped in a pass of pose refinement", "--resume"});
     options.stop = nullptr;
   }
   options.resume = true;
@@ -187,6 +216,37 @@ TEST(GaussianPoseRefinement, TheSecondPassStartsFreshGaussiansFromTheFirstPassPo
   auto bad = options;
   bad.pose_first_pass_steps = -1;
   testing::expect_error([&] { bad.validate(); }, {"pose_refinement.first_pass_steps must be >= 0"});
+  bad = options;
+  bad.pose_fit_steps = -1;
+  testing::expect_error([&] { bad.validate(); }, {"pose_refinement.fit_steps must be >= 0"});
+}
+
+TEST(GaussianPoseRefinement, WithFittingAThirdPassLearnsFreshGaussiansOnTheFittedPosesKeptAsTheyAre) {
+  // Passes long enough for Gaussians that the poses can be fitted to.
+  auto options = tiny_refinement("gaussian_pose_three_passes", 100);
+  options.pose_first_pass_steps = 100;
+  options.pose_fit_steps = 30;
+  const RunDirectory run(options.out_dir);
+  const auto summary = train_gaussian_avatar(options);
+  EXPECT_FALSE(summary.stopped);
+  EXPECT_EQ(summary.pose_pass_last_step, 100);
+  EXPECT_EQ(summary.last_step, 100);
+  // The second pass has a directory of its own, with the run's steps.
+  const RunDirectory second(run.pose_pass_directory(2));
+  EXPECT_EQ(fs::path(second.path()).filename(), "pose_pass_2");
+  ASSERT_EQ(second.checkpoints().size(), 1u);
+  EXPECT_NE(second.checkpoints()[0].find("100"), std::string::npos) << second.checkpoints()[0];
+  // The fitted poses: closer to the exact ones than the given, zero-mean.
+  const auto refined = refined_gaussian_poses(options.out_dir);
+  EXPECT_LT(refined.refined_error.joint_distance, 0.8 * refined.given_error.joint_distance) << refined.to_string();
+  const auto fitted = TrainedGaussianAvatar::load(options.out_dir).corrections->rotations();
+  EXPECT_LT(fitted.mean(0).abs().max().item<double>(), 1e-6);
+  // The last pass keeps them as they are: resumed further, at the second
+  // pass's rate (1e-3, which moves them in the two-pass flow), they stay.
+  options.resume = true;
+  options.steps = 110;
+  train_gaussian_avatar(options);
+  EXPECT_TRUE(torch::equal(TrainedGaussianAvatar::load(options.out_dir).corrections->rotations(), fitted));
 }
 
 TEST(GaussianPoseRefinement, ARunWithoutRefinementHasNoRefinedPoses) {

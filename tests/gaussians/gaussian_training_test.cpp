@@ -293,6 +293,7 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   old_document["losses"].erase("rig_silhouette");
   old_document["losses"].erase("unseen_view");
   old_document["losses"]["alpha_entropy"]["degrees"] = 30;
+  old_document["pose_refinement"].erase("fit_steps");
   std::ofstream(dir / "run.json") << old_document.dump();
   const auto old = read_gaussian_run_config((dir / "run.json").string(), dir.string()).avatar;
   EXPECT_EQ(old.skinning_source, "grid");
@@ -308,6 +309,9 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   EXPECT_EQ(old_options.unseen_view_degrees, 30.0);
   EXPECT_EQ(old_options.rig_silhouette_weight, 0.0);
   EXPECT_EQ(old_options.unseen_view_every, 1);
+  // ... and its poses refined in two passes, without fitting between them.
+  EXPECT_EQ(old_options.pose_fit_steps, 0);
+  EXPECT_GT(changed.pose_fit_steps, 0);
   EXPECT_FALSE(old_options.avatar_options().anchored);
   EXPECT_GT(changed.layer_weight, 0.0);
   EXPECT_TRUE(changed.avatar_options().anchored);

@@ -37,7 +37,9 @@ class RunDirectory {
   std::string best_scores_file() const;
   std::string best_checkpoint_file() const;
   std::string lock_file() const;
-  std::string pose_pass_directory() const;
+  // The run directory of pass `pass` of pose refinement before the run's own
+  // (gaussians/gaussian_training.h): pose_pass/, then pose_pass_2/, ...
+  std::string pose_pass_directory(int pass = 1) const;
   std::vector<std::string> checkpoints() const;  // numbered ones, newest first
 
   // Before the first step of a writer: removes what killed writes left, then

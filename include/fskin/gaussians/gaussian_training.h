@@ -130,6 +130,25 @@ struct GaussianTrainOptions {
   int64_t pose_first_pass_steps = 3000;
   double pose_second_pass_learning_rate = 1e-3;
   bool refines_in_two_passes() const { return refine_poses && pose_first_pass_steps > 0; }
+  // Fitting (pose_fit_steps > 0, with two passes): refinement then runs
+  // three passes. The first as above; the second (in pose_pass_2/, `steps`
+  // steps) is the two-pass flow's second; then each training pose is fitted
+  // to all the images that see it, pose_fit_steps Adam steps with that pass's
+  // Gaussians frozen (gaussian_pose_fitting.h, fit_gaussian_training_poses:
+  // test-time fitting's rates and cosine decay), the fits made zero-mean
+  // again; the run's own pass starts fresh Gaussians on the fitted poses and
+  // keeps them as they are. Why: in training a pose's correction steps about
+  // 75 times, from one view at a time, while the Gaussians move under it;
+  // fitted to its four views at once against settled Gaussians, the demo's
+  // noisy poses end half as far from the truth (the posed vertices 0.0008 of
+  // the size off instead of 0.0015, seed 0), and Gaussians learnt on them
+  // score FITTED_GAIN (docs/benchmarks.md, "Noisy poses"). The
+  // first pass's Gaussians are too blurred to fit to: rendering them costs
+  // about 7 times as much per fitting step (seed 0), so the fit comes after
+  // the second pass. About 1.5 times the two passes' time.
+  // 0: no fitting (two passes).
+  int64_t pose_fit_steps = 100;
+  bool fits_training_poses() const { return refines_in_two_passes() && pose_fit_steps > 0; }
   // Each step renders only the box of its image's mask grown by this fraction
   // of its size (mask_box), the camera cut to it; the losses stay those of the
   // whole picture (sums over the box divided by the whole picture's pixels and

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "fskin/radiance/avatar.h"
+#include "fskin/radiance/pose_correction.h"
 #include "fskin/skeleton/skeleton.h"
 
 namespace fskin {
@@ -46,6 +47,13 @@ using PoseImageLoss = std::function<torch::Tensor(const torch::Tensor& bones, in
 torch::Tensor fit_pose(const torch::Tensor& bones, const Skeleton& skeleton, double size,
                        const PoseFittingOptions& options, const std::vector<torch::Tensor>& frozen,
                        const PoseImageLoss& image_loss);
+
+// The same on frame `frame` of learned corrections, in place: its correction
+// steps from where it is, regularised (as in training) by its whole size, so
+// that a training pose can be fitted after a pass of training.
+void fit_pose_correction(PoseCorrectionsImpl& corrections, int64_t frame, const Skeleton& skeleton, double size,
+                         const PoseFittingOptions& options, const std::vector<torch::Tensor>& frozen,
+                         const PoseImageLoss& image_loss);
 
 // The corrected bones [J, 4, 4] of image `image` of `split`, starting from
 // `bones`; the avatar is not changed. skeleton / size: the character's
