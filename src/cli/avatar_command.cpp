@@ -210,7 +210,7 @@ void register_avatar(CLI::App& app) {
       options.stop = &stop;
       const auto summary = train_gaussian_avatar(options);
       if (summary.pose_pass_last_step > summary.pose_pass_first_step)
-        std::printf("%s: pose pass (1 of 2): steps %lld -> %lld\n", options.out_dir.c_str(),
+        std::printf("%s: first pass of pose refinement: steps %lld -> %lld\n", options.out_dir.c_str(),
                     static_cast<long long>(summary.pose_pass_first_step),
                     static_cast<long long>(summary.pose_pass_last_step));
       std::printf("%s: steps %lld -> %lld in %.1f s; %lld Gaussians; last loss %.5f, image PSNR %.2f dB%s\n",

@@ -67,6 +67,7 @@ const Field kFields[] = {
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/first_pass_steps", pose_first_pass_steps),
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/second_pass_learning_rate", pose_second_pass_learning_rate),
     FSKIN_GAUSSIAN_FIELD("/pose_refinement/fit_steps", pose_fit_steps),
+    FSKIN_GAUSSIAN_FIELD("/pose_refinement/fit_rounds", pose_fit_rounds),
     FSKIN_GAUSSIAN_FIELD("/losses/ssim/weight", ssim_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/mask/weight", mask_weight),
     FSKIN_GAUSSIAN_FIELD("/losses/skinning/weight", skinning_weight),

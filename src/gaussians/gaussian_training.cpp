@@ -95,6 +95,8 @@ void GaussianTrainOptions::validate() const {
               pose_first_pass_steps);
   FSKIN_CHECK(pose_fit_steps >= 0, "gaussian avatar train: pose_refinement.fit_steps must be >= 0, got {}",
               pose_fit_steps);
+  FSKIN_CHECK(pose_fit_rounds >= 1, "gaussian avatar train: pose_refinement.fit_rounds must be >= 1, got {}",
+              pose_fit_rounds);
   FSKIN_CHECK(std::isfinite(skinning_weight) && skinning_weight >= 0,
               "gaussian avatar train: the skinning prior's weight must be >= 0");
   FSKIN_CHECK(std::isfinite(crop_margin) && crop_margin <= 10,
@@ -408,11 +410,13 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
 
   GaussianTrainSummary summary;
   // Pose refinement's passes before the run's own (gaussian_training.h): the
-  // first, and with fitting a second, each in a run directory of its own;
-  // each starts fresh Gaussians from the previous pass's poses. They run to
+  // first, and with fitting a second and one more per further round, each in
+  // a run directory of its own; each starts fresh Gaussians from the previous
+  // pass's poses, fitted after every pass from the second on. They run to
   // their ends first, unless the run's own pass has begun (a resumed run).
   const bool fits = options.fits_training_poses();
-  const int pose_passes = !options.refines_in_two_passes() ? 0 : fits ? 2 : 1;
+  const int pose_passes =
+      !options.refines_in_two_passes() ? 0 : fits ? 1 + static_cast<int>(options.pose_fit_rounds) : 1;
   const int passes = pose_passes + 1;
   const auto label = [passes](int pass) {
     return passes == 1 ? std::string("gaussian avatar train")
@@ -430,7 +434,8 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
       if (pass > 1) pass_options.pose_learning_rate = options.pose_second_pass_learning_rate;
       torch::manual_seed(options.seed);
       GaussianAvatar pass_avatar(data.character(), options.avatar_options(), options.seed);
-      GaussianTrainable pass_trainable(pass_avatar, pass_options, data, split);
+      // Passes after a fit keep the fitted poses as they are.
+      GaussianTrainable pass_trainable(pass_avatar, pass_options, data, split, /*poses_frozen=*/pass >= 3);
       if (pose_pass_poses) pass_trainable.corrections()->assign(*pose_pass_poses);
       const auto result = Trainer(pose_pass, trainer_settings(pass_options, label(pass))).run(pass_trainable);
       if (pass == 1) {
@@ -443,7 +448,7 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
         return summary;
       }
       pose_pass_poses = pass_trainable.corrections();
-      if (pass == pose_passes && fits) {
+      if (pass >= 2 && fits) {
         PoseFittingOptions fitting;
         fitting.steps = options.pose_fit_steps;
         const auto& character = data.character();

@@ -186,7 +186,7 @@ TEST_F(AvatarCommands, GaussianAvatarsTrainEvaluateAndRender) {
             0)
       << log();
   EXPECT_NE(log().find("Gaussians; last loss"), std::string::npos) << log();
-  EXPECT_NE(log().find("pose pass (1 of 2): steps 0 -> 10"), std::string::npos) << log();
+  EXPECT_NE(log().find("first pass of pose refinement: steps 0 -> 10"), std::string::npos) << log();
   const auto document = nlohmann::json::parse(read_file(run + "/gaussian_avatar.json"));
   EXPECT_EQ(document.at("model").at("type"), "gaussian-avatar");
   EXPECT_EQ(document.at("density").at("every"), 10);

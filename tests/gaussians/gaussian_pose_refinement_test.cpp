@@ -15,13 +15,16 @@
 #include <nlohmann/json.hpp>
 
 #include "fskin/core/error.h"
+#include "fskin/engine/checkpoint.h"
 #include "fskin/engine/stop_signal.h"
 #include "fskin/engine/run_directory.h"
+#include "fskin/engine/trainer.h"
 #include "fskin/geometry/character_size.h"
 #include "fskin/gaussians/gaussian_evaluation.h"
 #include "fskin/gaussians/gaussian_pose_fitting.h"
 #include "fskin/gaussians/gaussian_training.h"
 #include "fskin/io/npz.h"
+#include "fskin/radiance/pose_correction.h"
 #include "fskin/radiance/image_metrics.h"
 #include "gaussians/tiny_gaussian_training.h"
 #include "radiance/tiny_image_dataset.h"
@@ -247,6 +250,39 @@ TEST(GaussianPoseRefinement, WithFittingAThirdPassLearnsFreshGaussiansOnTheFitte
   options.steps = 110;
   train_gaussian_avatar(options);
   EXPECT_TRUE(torch::equal(TrainedGaussianAvatar::load(options.out_dir).corrections->rotations(), fitted));
+}
+
+TEST(GaussianPoseRefinement, ASecondRoundFitsThePosesAgainAfterAPassOnTheFirstFit) {
+  auto options = tiny_refinement("gaussian_pose_two_rounds", 100);
+  options.pose_first_pass_steps = 100;
+  options.pose_fit_steps = 30;
+  options.pose_fit_rounds = 2;
+  const RunDirectory run(options.out_dir), third(run.pose_pass_directory(3));
+  const auto summary = train_gaussian_avatar(options);
+  EXPECT_FALSE(summary.stopped);
+  EXPECT_EQ(summary.last_step, 100);
+  // The first round's pass has a directory of its own, started from fresh Gaussians.
+  EXPECT_EQ(fs::path(third.path()).filename(), "pose_pass_3");
+  ASSERT_EQ(third.checkpoints().size(), 1u);
+  EXPECT_EQ(logged_gaussians(third.log_file()).first, logged_gaussians(run.log_file()).first);
+  const auto refined = refined_gaussian_poses(options.out_dir);
+  EXPECT_LT(refined.refined_error.joint_distance, 0.8 * refined.given_error.joint_distance) << refined.to_string();
+  const auto twice = TrainedGaussianAvatar::load(options.out_dir).corrections->rotations();
+  EXPECT_LT(twice.mean(0).abs().max().item<double>(), 1e-6);
+
+  // The first round's fitted poses, kept by its pass (read from its
+  // checkpoint): the second round's fit moved them.
+  torch::Tensor fitted_once;
+  load_model_checkpoint(third, CheckpointChoice{}, "gaussian_avatar", [&](torch::serialize::InputArchive& archive) {
+    auto poses = checkpoint_part(archive, "pose_corrections", third.path(), "refines poses");
+    fitted_once = PoseCorrectionsImpl::read(poses)->rotations();
+  });
+  EXPECT_LT(fitted_once.mean(0).abs().max().item<double>(), 1e-6);
+  EXPECT_GT((twice - fitted_once).abs().max().item<double>(), 1e-5);
+
+  auto bad = options;
+  bad.pose_fit_rounds = 0;
+  testing::expect_error([&] { bad.validate(); }, {"pose_refinement.fit_rounds must be >= 1"});
 }
 
 TEST(GaussianPoseRefinement, ARunWithoutRefinementHasNoRefinedPoses) {

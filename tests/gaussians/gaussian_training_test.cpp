@@ -294,6 +294,7 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   old_document["losses"].erase("unseen_view");
   old_document["losses"]["alpha_entropy"]["degrees"] = 30;
   old_document["pose_refinement"].erase("fit_steps");
+  old_document["pose_refinement"].erase("fit_rounds");
   std::ofstream(dir / "run.json") << old_document.dump();
   const auto old = read_gaussian_run_config((dir / "run.json").string(), dir.string()).avatar;
   EXPECT_EQ(old.skinning_source, "grid");
@@ -311,7 +312,11 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   EXPECT_EQ(old_options.unseen_view_every, 1);
   // ... and its poses refined in two passes, without fitting between them.
   EXPECT_EQ(old_options.pose_fit_steps, 0);
+  EXPECT_EQ(old_options.pose_fit_rounds, 1);
   EXPECT_GT(changed.pose_fit_steps, 0);
+  EXPECT_EQ(configure_gaussian_options(base, "", {"pose_refinement.fit_rounds=2"}).pose_fit_rounds, 2);
+  testing::expect_error([&] { configure_gaussian_options(base, "", {"pose_refinement.fit_rounds=0"}); },
+                        {"pose_refinement.fit_rounds must be >= 1"});
   EXPECT_FALSE(old_options.avatar_options().anchored);
   EXPECT_GT(changed.layer_weight, 0.0);
   EXPECT_TRUE(changed.avatar_options().anchored);

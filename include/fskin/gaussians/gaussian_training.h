@@ -150,6 +150,14 @@ struct GaussianTrainOptions {
   // takes most of the time: 3.2 times the two passes' (demo, 2 cores).
   // 0: no fitting (two passes).
   int64_t pose_fit_steps = 100;
+  // Rounds of fitting: each fits the training poses against the previous
+  // pass's Gaussians, then trains fresh Gaussians on them in a pass of its
+  // own, poses kept (pose_pass_3/, ...; the last round's pass is the run's
+  // own). 1: the three passes above; 2: four passes, the second fit against
+  // Gaussians learnt on fitted poses: on the demo's noisy poses the novel
+  // views score 0.20 dB higher (seed 0; docs/benchmarks.md, "A second round
+  // of fitting") for about 21 more minutes on 2 cores.
+  int64_t pose_fit_rounds = 1;
   bool fits_training_poses() const { return refines_in_two_passes() && pose_fit_steps > 0; }
   // Each step renders only the box of its image's mask grown by this fraction
   // of its size (mask_box), the camera cut to it; the losses stay those of the
