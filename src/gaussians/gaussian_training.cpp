@@ -448,7 +448,9 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
         return summary;
       }
       pose_pass_poses = pass_trainable.corrections();
-      if (pass >= 2 && fits) {
+      const bool next_pass_begun = options.resume && pass < pose_passes &&
+                                   !RunDirectory(run.pose_pass_directory(pass + 1)).checkpoints().empty();
+      if (pass >= 2 && fits && !next_pass_begun) {
         PoseFittingOptions fitting;
         fitting.steps = options.pose_fit_steps;
         const auto& character = data.character();
@@ -460,6 +462,7 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
           return summary;
         }
         pose_pass_poses->center();  // the gauge training keeps (PoseCorrectionsImpl::center)
+        ++summary.pose_fits;
       }
     }
   }

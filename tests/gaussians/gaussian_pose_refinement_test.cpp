@@ -279,6 +279,16 @@ TEST(GaussianPoseRefinement, ASecondRoundFitsThePosesAgainAfterAPassOnTheFirstFi
   });
   EXPECT_LT(fitted_once.mean(0).abs().max().item<double>(), 1e-6);
   EXPECT_GT((twice - fitted_once).abs().max().item<double>(), 1e-5);
+  EXPECT_EQ(summary.pose_fits, 2);
+
+  // Resumed with the last pass not begun (its checkpoints gone), only the
+  // second fit runs again: the third pass's checkpoint holds the first's poses.
+  for (const auto& checkpoint : run.checkpoints()) fs::remove(checkpoint);
+  fs::remove(run.log_file());
+  options.resume = true;
+  const auto resumed = train_gaussian_avatar(options);
+  EXPECT_EQ(resumed.pose_fits, 1);
+  EXPECT_EQ(resumed.last_step, 100);
 
   auto bad = options;
   bad.pose_fit_rounds = 0;

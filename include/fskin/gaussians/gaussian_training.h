@@ -184,6 +184,9 @@ struct GaussianTrainSummary {
   // ran it: steps [first, last); none when it had finished before or does
   // not exist. `seconds` counts both passes.
   int64_t pose_pass_first_step = 0, pose_pass_last_step = 0;
+  // The fits of the training poses this call ran: a resumed run skips a fit
+  // whose following pass has begun (that pass's checkpoint holds its poses).
+  int64_t pose_fits = 0;
 };
 
 GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& options);
