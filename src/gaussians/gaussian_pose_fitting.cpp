@@ -58,16 +58,9 @@ torch::Tensor fit_gaussian_pose_to_image(GaussianAvatarImpl& avatar, const Image
                                          const torch::Tensor& bones, const std::array<double, 3>& background,
                                          const Skeleton& skeleton, double size, double mask_weight,
                                          const PoseFittingOptions& options) {
-  return fit_gaussian_pose_to_images(avatar, split, {image}, bones, background, skeleton, size, mask_weight, options);
-}
-
-torch::Tensor fit_gaussian_pose_to_images(GaussianAvatarImpl& avatar, const ImageSplit& split,
-                                          const std::vector<int64_t>& images, const torch::Tensor& bones,
-                                          const std::array<double, 3>& background, const Skeleton& skeleton,
-                                          double size, double mask_weight, const PoseFittingOptions& options) {
   options.validate();
   if (options.steps == 0) return bones.detach().to(torch::kCPU, torch::kFloat32).contiguous();  // no crops to make
-  const ViewsLoss loss(split, images, background, mask_weight);
+  const ViewsLoss loss(split, {image}, background, mask_weight);
   return fit_pose(bones, skeleton, size, options, avatar.parameters(),
                   [&](const torch::Tensor& corrected, int64_t) { return loss(avatar, corrected); });
 }

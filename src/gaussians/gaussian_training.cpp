@@ -425,6 +425,12 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
   };
   PoseCorrections pose_pass_poses{nullptr};
   if (pose_passes > 0 && !(options.resume && !run.checkpoints().empty())) {
+    // The fits' settings: test-time fitting's, with the run's steps.
+    PoseFittingOptions fitting;
+    fitting.steps = options.pose_fit_steps;
+    const auto& character = data.character();
+    const double size = character_size(character.mesh.vertices, "gaussian avatar train: canonical vertices");
+    const auto frame_of = frames_of_images(split.bone_transforms);
     for (int pass = 1; pass <= pose_passes; ++pass) {
       const RunDirectory pose_pass(run.pose_pass_directory(pass));
       if (!options.resume && fs::exists(pose_pass.path())) fs::remove_all(pose_pass.path());  // a fresh run's
@@ -451,12 +457,8 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
       const bool next_pass_begun = options.resume && pass < pose_passes &&
                                    !RunDirectory(run.pose_pass_directory(pass + 1)).checkpoints().empty();
       if (pass >= 2 && fits && !next_pass_begun) {
-        PoseFittingOptions fitting;
-        fitting.steps = options.pose_fit_steps;
-        const auto& character = data.character();
-        const double size = character_size(character.mesh.vertices, "gaussian avatar train: canonical vertices");
-        if (!fit_gaussian_training_poses(*pass_avatar, split, frames_of_images(split.bone_transforms),
-                                         *pose_pass_poses, data.background(), character.skeleton, size,
+        if (!fit_gaussian_training_poses(*pass_avatar, split, frame_of, *pose_pass_poses, data.background(),
+                                         character.skeleton, size,
                                          options.mask_weight, fitting, options.progress, options.stop)) {
           summary.stopped = true;  // a resumed run fits again, from the pass's end
           return summary;

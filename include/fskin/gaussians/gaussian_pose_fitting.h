@@ -27,14 +27,6 @@ torch::Tensor fit_gaussian_pose_to_image(GaussianAvatarImpl& avatar, const Image
                                          const Skeleton& skeleton, double size, double mask_weight,
                                          const PoseFittingOptions& options);
 
-// The same for one pose seen by several images (a training frame's views, all
-// posed by `bones`): fitted to all of them at once, the loss the mean of the
-// images' losses, so that a view that barely sees a joint cannot bend it.
-torch::Tensor fit_gaussian_pose_to_images(GaussianAvatarImpl& avatar, const ImageSplit& split,
-                                          const std::vector<int64_t>& images, const torch::Tensor& bones,
-                                          const std::array<double, 3>& background, const Skeleton& skeleton,
-                                          double size, double mask_weight, const PoseFittingOptions& options);
-
 // Every training frame's learned correction fitted in place, frame by frame,
 // to the images that see it (frame_of: per image of `split`, its frame,
 // frames_of_images), with the Gaussians frozen; a progress bar over the frames
