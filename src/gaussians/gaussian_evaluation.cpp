@@ -21,10 +21,12 @@ AvatarEvaluation evaluate_gaussian_avatar_run(const std::string& run_dir, const 
   // The novel views of training poses with their refined bones, as the volume
   // avatar's (avatar_evaluation.h), fitted when asked.
   const FrameInputsOf inputs_of = [&](const ImageSplit& images, int64_t i) {
+    const auto appearance = trained.appearance_for(images.bone_transforms[i]);
     const auto bones = fit_gaussian_pose_to_image(*trained.avatar, images, i,
                                                   trained.bones_for(images.bone_transforms[i]), data.background(),
-                                                  character.skeleton, size, trained.options.mask_weight, fitting);
-    return FrameInputs{bones, trained.appearance_for(images.bone_transforms[i])};
+                                                  character.skeleton, size, trained.options.mask_weight, fitting,
+                                                  appearance);
+    return FrameInputs{bones, appearance};
   };
   auto scores = evaluate_renders(render, data, split, max_images, progress, inputs_of);
   scores.pose_fitting_steps = fitting.steps;

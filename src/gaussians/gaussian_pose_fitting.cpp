@@ -12,7 +12,8 @@ namespace {
 
 // The fitting loss of one pose seen by images of a split: per image, the mean
 // L1 on colour plus mask_weight x the mean L1 between alpha and mask, over the
-// image's mask box grown by 20 %; the mean over the images.
+// image's mask box grown by 20 %; the mean over the images. The Gaussians are
+// rendered with the pose's appearance code (undefined: code zero).
 class ViewsLoss {
  public:
   ViewsLoss(const ImageSplit& split, const std::vector<int64_t>& images, const std::array<double, 3>& background,
@@ -30,11 +31,12 @@ class ViewsLoss {
     }
   }
 
-  torch::Tensor operator()(GaussianAvatarImpl& avatar, const torch::Tensor& bones) const {
+  torch::Tensor operator()(GaussianAvatarImpl& avatar, const torch::Tensor& bones,
+                           const torch::Tensor& appearance) const {
     const auto posed = avatar.pose(bones);  // once for every view
     torch::Tensor loss;
     for (const auto& view : views_) {
-      const auto rendered = avatar.render(posed, view.camera, background_);
+      const auto rendered = avatar.render(posed, view.camera, background_, appearance);
       const auto term =
           (rendered.image - view.target).abs().mean() + mask_weight_ * (rendered.alpha - view.mask).abs().mean();
       loss = loss.defined() ? loss + term : term;
@@ -57,23 +59,27 @@ class ViewsLoss {
 torch::Tensor fit_gaussian_pose_to_image(GaussianAvatarImpl& avatar, const ImageSplit& split, int64_t image,
                                          const torch::Tensor& bones, const std::array<double, 3>& background,
                                          const Skeleton& skeleton, double size, double mask_weight,
-                                         const PoseFittingOptions& options) {
+                                         const PoseFittingOptions& options, const torch::Tensor& appearance) {
   options.validate();
   if (options.steps == 0) return bones.detach().to(torch::kCPU, torch::kFloat32).contiguous();  // no crops to make
   const ViewsLoss loss(split, {image}, background, mask_weight);
+  const auto code = appearance.defined() ? appearance.detach() : appearance;
   return fit_pose(bones, skeleton, size, options, avatar.parameters(),
-                  [&](const torch::Tensor& corrected, int64_t) { return loss(avatar, corrected); });
+                  [&](const torch::Tensor& corrected, int64_t) { return loss(avatar, corrected, code); });
 }
 
 bool fit_gaussian_training_poses(GaussianAvatarImpl& avatar, const ImageSplit& split,
                                  const std::vector<int64_t>& frame_of, PoseCorrectionsImpl& corrections,
-                                 const std::array<double, 3>& background, const Skeleton& skeleton, double size,
+                                 const AppearanceCodesImpl* appearance, const std::array<double, 3>& background, const Skeleton& skeleton, double size,
                                  double mask_weight, const PoseFittingOptions& options, bool progress,
                                  const StopSignal* stop) {
   options.validate();
   FSKIN_CHECK(static_cast<int64_t>(frame_of.size()) == split.size(),
               "gaussian pose fitting: {} frame numbers for {} images", frame_of.size(), split.size());
   if (options.steps == 0) return true;
+  FSKIN_CHECK(!appearance || appearance->frames() == corrections.frames(),
+              "gaussian pose fitting: {} appearance codes for {} frames", appearance ? appearance->frames() : 0,
+              corrections.frames());
   std::vector<std::vector<int64_t>> views(static_cast<size_t>(corrections.frames()));
   for (size_t i = 0; i < frame_of.size(); ++i) {
     FSKIN_CHECK(frame_of[i] >= 0 && frame_of[i] < corrections.frames(),
@@ -85,8 +91,9 @@ bool fit_gaussian_training_poses(GaussianAvatarImpl& avatar, const ImageSplit& s
     if (stop && stop->requested()) return false;
     if (!views[static_cast<size_t>(f)].empty()) {
       const ViewsLoss loss(split, views[static_cast<size_t>(f)], background, mask_weight);
+      const auto code = appearance ? appearance->code(f).detach() : torch::Tensor();
       fit_pose_correction(corrections, f, skeleton, size, options, avatar.parameters(),
-                          [&](const torch::Tensor& corrected, int64_t) { return loss(avatar, corrected); });
+                          [&](const torch::Tensor& corrected, int64_t) { return loss(avatar, corrected, code); });
     }
     bar.advance();
   }

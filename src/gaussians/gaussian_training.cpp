@@ -354,6 +354,8 @@ class GaussianTrainable : public Trainable {
 
   // The learned pose corrections (null without refine_poses).
   PoseCorrections corrections() const { return corrections_; }
+  // The learned appearance codes (null without appearance.dim).
+  AppearanceCodes appearance_codes() const { return appearance_; }
 
   std::string progress_text(const nlohmann::json& values) const override {
     return fmt::format("loss {:.4f} psnr {:.1f} {:.0f} gaussians", values.at("loss").get<double>(),
@@ -457,8 +459,9 @@ GaussianTrainSummary train_gaussian_avatar(const GaussianTrainOptions& requested
       const bool next_pass_begun = options.resume && pass < pose_passes &&
                                    !RunDirectory(run.pose_pass_directory(pass + 1)).checkpoints().empty();
       if (pass >= 2 && fits && !next_pass_begun) {
-        if (!fit_gaussian_training_poses(*pass_avatar, split, frame_of, *pose_pass_poses, data.background(),
-                                         character.skeleton, size,
+        const auto codes = pass_trainable.appearance_codes();
+        if (!fit_gaussian_training_poses(*pass_avatar, split, frame_of, *pose_pass_poses,
+                                         codes ? codes.get() : nullptr, data.background(), character.skeleton, size,
                                          options.mask_weight, fitting, options.progress, options.stop)) {
           summary.stopped = true;  // a resumed run fits again, from the pass's end
           return summary;

@@ -24,6 +24,7 @@
 #include "fskin/gaussians/gaussian_pose_fitting.h"
 #include "fskin/gaussians/gaussian_training.h"
 #include "fskin/io/npz.h"
+#include "fskin/radiance/appearance_codes.h"
 #include "fskin/radiance/pose_correction.h"
 #include "fskin/radiance/image_metrics.h"
 #include "gaussians/tiny_gaussian_training.h"
@@ -140,11 +141,11 @@ TEST(GaussianPoseFitting, FitsANoisyPoseToItsImageWithTheGaussiansFrozen) {
   {
     StopSignal stop;
     StopSignal::request();  // before the first frame: nothing fitted
-    EXPECT_FALSE(fit_gaussian_training_poses(*trained.avatar, split, frame_of, *corrections, data.background(),
+    EXPECT_FALSE(fit_gaussian_training_poses(*trained.avatar, split, frame_of, *corrections, nullptr, data.background(),
                                              skeleton, size, 0.5, fitting, false, &stop));
     EXPECT_EQ(corrections->rotations().abs().max().item<double>(), 0);
   }
-  EXPECT_TRUE(fit_gaussian_training_poses(*trained.avatar, split, frame_of, *corrections, data.background(), skeleton,
+  EXPECT_TRUE(fit_gaussian_training_poses(*trained.avatar, split, frame_of, *corrections, nullptr, data.background(), skeleton,
                                           size, 0.5, fitting, false));
   const auto fitted_error = pose_error(corrections->corrected(skeleton, size), exact_frames, skeleton, size);
   EXPECT_LT(fitted_error.joint_distance, 0.8 * given_error.joint_distance)
@@ -152,9 +153,69 @@ TEST(GaussianPoseFitting, FitsANoisyPoseToItsImageWithTheGaussiansFrozen) {
   EXPECT_TRUE(torch::equal(trained.avatar->means(), means));
   // Frame numbers that do not match the split are named.
   testing::expect_error([&] {
-    fit_gaussian_training_poses(*trained.avatar, split, {0}, *corrections, data.background(), skeleton, size, 0.5,
+    fit_gaussian_training_poses(*trained.avatar, split, {0}, *corrections, nullptr, data.background(), skeleton, size, 0.5,
                                 fitting, false);
   }, {"frame numbers"});
+}
+
+TEST(GaussianPoseFitting, RendersEachFrameWithItsAppearanceCode) {
+  // Pictures of an avatar with appearance codes, each frame rendered with a
+  // code of its own that changes its colours: fitted with the frames' codes,
+  // the noisy poses come back to the exact ones; fitted with code zero, the
+  // colours disagree and the fit ends farther off.
+  const ImageDataset data(testing::tiny_image_dataset().dir);
+  auto split = data.load_split("train");
+  const auto& skeleton = data.character().skeleton;
+  const double size = character_size(data.character().mesh.vertices);
+  auto avatar_options = testing::tiny_gaussian_training("gaussian_pose_fitting_codes", 1).avatar;
+  avatar_options.appearance.dim = 4;
+  torch::manual_seed(0);
+  GaussianAvatar avatar(data.character(), avatar_options, 0);
+  const auto frame_of = frames_of_images(split.bone_transforms);
+  const auto exact = frame_bone_transforms(split.bone_transforms, frame_of);
+  AppearanceCodes codes(exact, 4);
+  {
+    torch::NoGradGuard no_grad;
+    // The code's response starts at zero (gaussian_appearance.h): made strong.
+    for (auto& p : avatar->appearance()->named_parameters())
+      if (p.key() == "out.weight") p.value().normal_(0, 0.5);
+    for (int64_t f = 0; f < codes->frames(); ++f) codes->code(f).normal_(0, 1);
+    for (int64_t i = 0; i < split.size(); ++i) {
+      const auto rendered = avatar->render(split.bone_transforms[i], split.cameras[static_cast<size_t>(i)],
+                                           data.background(), codes->code(frame_of[static_cast<size_t>(i)]));
+      split.images[i].copy_((rendered.image * 255).round().clamp(0, 255).to(torch::kUInt8));
+      split.masks[i].copy_((rendered.alpha * 255).round().clamp(0, 255).to(torch::kUInt8));
+    }
+  }
+  std::vector<torch::Tensor> noisy_frames;
+  for (int64_t f = 0; f < exact.size(0); ++f) noisy_frames.push_back(testing::noisy_bones(exact[f], skeleton, size));
+  const auto noisy = torch::stack(noisy_frames);
+  PoseFittingOptions fitting;
+  fitting.steps = 100;
+  const auto fitted_error = [&](const AppearanceCodesImpl* appearance) {
+    PoseCorrections corrections(noisy);
+    EXPECT_TRUE(fit_gaussian_training_poses(*avatar, split, frame_of, *corrections, appearance, data.background(),
+                                            skeleton, size, 0.5, fitting, false));
+    return pose_error(corrections->corrected(skeleton, size), exact, skeleton, size).joint_distance;
+  };
+  const double given = pose_error(noisy, exact, skeleton, size).joint_distance;
+  const double with_codes = fitted_error(codes.get()), with_code_zero = fitted_error(nullptr);
+  EXPECT_LT(with_codes, 0.3 * given) << given << " -> " << with_codes;
+  EXPECT_LT(with_codes, 0.7 * with_code_zero) << "with codes " << with_codes << ", with code zero " << with_code_zero;
+  // One image the same way.
+  const auto one_image_error = [&](const torch::Tensor& code) {
+    const auto fitted = fit_gaussian_pose_to_image(*avatar, split, 0, noisy[frame_of[0]], data.background(), skeleton,
+                                                   size, 0.5, fitting, code);
+    return pose_error(fitted.unsqueeze(0), exact[frame_of[0]].unsqueeze(0), skeleton, size).joint_distance;
+  };
+  EXPECT_LT(one_image_error(codes->code(frame_of[0])), 0.7 * one_image_error({}));
+  // A code per frame, or none.
+  PoseCorrections corrections(noisy);
+  AppearanceCodes too_few(exact.slice(0, 0, 1), 4);
+  testing::expect_error([&] {
+    fit_gaussian_training_poses(*avatar, split, frame_of, *corrections, too_few.get(), data.background(), skeleton,
+                                size, 0.5, fitting, false);
+  }, {"appearance codes for"});
 }
 
 TEST(GaussianPoseRefinement, TheRootShiftStepsAtItsOwnRate) {
@@ -250,6 +311,23 @@ TEST(GaussianPoseRefinement, WithFittingAThirdPassLearnsFreshGaussiansOnTheFitte
   options.steps = 110;
   train_gaussian_avatar(options);
   EXPECT_TRUE(torch::equal(TrainedGaussianAvatar::load(options.out_dir).corrections->rotations(), fitted));
+}
+
+TEST(GaussianPoseRefinement, WithAppearanceCodesTheTrainingFitUsesThePassCodes) {
+  // The fit between the passes is given the second pass's codes
+  // (GaussianPoseFitting.RendersEachFrameWithItsAppearanceCode shows what
+  // they change); here the run's flow with them: it fits once and completes,
+  // a code per pose.
+  auto options = tiny_refinement("gaussian_pose_fit_codes", 30);
+  options.pose_first_pass_steps = 30;
+  options.pose_fit_steps = 5;
+  options.avatar.appearance.dim = 4;
+  const auto summary = train_gaussian_avatar(options);
+  EXPECT_FALSE(summary.stopped);
+  EXPECT_EQ(summary.pose_fits, 1);
+  const auto trained = TrainedGaussianAvatar::load(options.out_dir);
+  ASSERT_TRUE(trained.appearance);
+  EXPECT_EQ(trained.appearance->frames(), trained.corrections->frames());
 }
 
 TEST(GaussianPoseRefinement, ASecondRoundFitsThePosesAgainAfterAPassOnTheFirstFit) {

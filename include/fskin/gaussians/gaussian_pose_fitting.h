@@ -13,6 +13,7 @@
 
 #include "fskin/engine/stop_signal.h"
 #include "fskin/gaussians/gaussian_avatar.h"
+#include "fskin/radiance/appearance_codes.h"
 #include "fskin/radiance/image_dataset.h"
 #include "fskin/radiance/pose_correction.h"
 #include "fskin/radiance/pose_fitting.h"
@@ -22,19 +23,22 @@ namespace fskin {
 
 // The corrected bones [J, 4, 4] of image `image` of `split`, starting from
 // `bones`; the avatar is not changed. skeleton / size: the character's.
+// appearance: the code the image is rendered with (undefined: code zero, the
+// frames' average appearance).
 torch::Tensor fit_gaussian_pose_to_image(GaussianAvatarImpl& avatar, const ImageSplit& split, int64_t image,
                                          const torch::Tensor& bones, const std::array<double, 3>& background,
                                          const Skeleton& skeleton, double size, double mask_weight,
-                                         const PoseFittingOptions& options);
+                                         const PoseFittingOptions& options, const torch::Tensor& appearance = {});
 
 // Every training frame's learned correction fitted in place, frame by frame,
 // to the images that see it (frame_of: per image of `split`, its frame,
-// frames_of_images), with the Gaussians frozen; a progress bar over the frames
-// when `progress`. Returns false when `stop` was requested before the last
+// frames_of_images), with the Gaussians frozen, each frame rendered with its
+// appearance code (appearance: the run's codes, one per frame; null: an avatar
+// without codes); a progress bar over the frames when `progress`. Returns false when `stop` was requested before the last
 // frame (the frames fitted so far keep their fit).
 bool fit_gaussian_training_poses(GaussianAvatarImpl& avatar, const ImageSplit& split,
                                  const std::vector<int64_t>& frame_of, PoseCorrectionsImpl& corrections,
-                                 const std::array<double, 3>& background, const Skeleton& skeleton, double size,
+                                 const AppearanceCodesImpl* appearance, const std::array<double, 3>& background, const Skeleton& skeleton, double size,
                                  double mask_weight, const PoseFittingOptions& options, bool progress,
                                  const StopSignal* stop = nullptr);
 
