@@ -142,6 +142,8 @@ GaussianTrainOptions read_gaussian_run_config(const std::string& path, const std
   if (!document.contains(json::json_pointer("/losses/unseen_view/every"))) base.unseen_view_every = 1;
   // ... and those written before training poses were fitted refined them in two passes.
   if (!document.contains(json::json_pointer("/pose_refinement/fit_steps"))) base.pose_fit_steps = 0;
+  // ... and those written before the second round fitted them once.
+  if (!document.contains(json::json_pointer("/pose_refinement/fit_rounds"))) base.pose_fit_rounds = 1;
   // ... and those written before the rig silhouette prior shared the unseen view kept its angle with the entropy's.
   const json::json_pointer old_degrees("/losses/alpha_entropy/degrees");
   if (document.is_object() && document.contains(old_degrees)) {

@@ -314,6 +314,7 @@ TEST(GaussianTraining, TheConfigDocumentRoundTripsAndNamesBadKeys) {
   EXPECT_EQ(old_options.pose_fit_steps, 0);
   EXPECT_EQ(old_options.pose_fit_rounds, 1);
   EXPECT_GT(changed.pose_fit_steps, 0);
+  EXPECT_EQ(changed.pose_fit_rounds, 2);
   EXPECT_EQ(configure_gaussian_options(base, "", {"pose_refinement.fit_rounds=2"}).pose_fit_rounds, 2);
   testing::expect_error([&] { configure_gaussian_options(base, "", {"pose_refinement.fit_rounds=0"}); },
                         {"pose_refinement.fit_rounds must be >= 1"});
