@@ -70,9 +70,9 @@ torch::Tensor fit_gaussian_pose_to_image(GaussianAvatarImpl& avatar, const Image
 
 bool fit_gaussian_training_poses(GaussianAvatarImpl& avatar, const ImageSplit& split,
                                  const std::vector<int64_t>& frame_of, PoseCorrectionsImpl& corrections,
-                                 const AppearanceCodesImpl* appearance, const std::array<double, 3>& background, const Skeleton& skeleton, double size,
-                                 double mask_weight, const PoseFittingOptions& options, bool progress,
-                                 const StopSignal* stop) {
+                                 const AppearanceCodesImpl* appearance, const std::array<double, 3>& background,
+                                 const Skeleton& skeleton, double size, double mask_weight,
+                                 const PoseFittingOptions& options, bool progress, const StopSignal* stop) {
   options.validate();
   FSKIN_CHECK(static_cast<int64_t>(frame_of.size()) == split.size(),
               "gaussian pose fitting: {} frame numbers for {} images", frame_of.size(), split.size());

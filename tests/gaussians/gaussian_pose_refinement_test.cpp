@@ -142,20 +142,20 @@ TEST(GaussianPoseFitting, FitsANoisyPoseToItsImageWithTheGaussiansFrozen) {
   {
     StopSignal stop;
     StopSignal::request();  // before the first frame: nothing fitted
-    EXPECT_FALSE(fit_gaussian_training_poses(*trained.avatar, split, frame_of, *corrections, nullptr, data.background(),
-                                             skeleton, size, 0.5, fitting, false, &stop));
+    EXPECT_FALSE(fit_gaussian_training_poses(*trained.avatar, split, frame_of, *corrections, nullptr,
+                                             data.background(), skeleton, size, 0.5, fitting, false, &stop));
     EXPECT_EQ(corrections->rotations().abs().max().item<double>(), 0);
   }
-  EXPECT_TRUE(fit_gaussian_training_poses(*trained.avatar, split, frame_of, *corrections, nullptr, data.background(), skeleton,
-                                          size, 0.5, fitting, false));
+  EXPECT_TRUE(fit_gaussian_training_poses(*trained.avatar, split, frame_of, *corrections, nullptr, data.background(),
+                                          skeleton, size, 0.5, fitting, false));
   const auto fitted_error = pose_error(corrections->corrected(skeleton, size), exact_frames, skeleton, size);
   EXPECT_LT(fitted_error.joint_distance, 0.8 * given_error.joint_distance)
       << given_error.joint_distance << " -> " << fitted_error.joint_distance;
   EXPECT_TRUE(torch::equal(trained.avatar->means(), means));
   // Frame numbers that do not match the split are named.
   testing::expect_error([&] {
-    fit_gaussian_training_poses(*trained.avatar, split, {0}, *corrections, nullptr, data.background(), skeleton, size, 0.5,
-                                fitting, false);
+    fit_gaussian_training_poses(*trained.avatar, split, {0}, *corrections, nullptr, data.background(), skeleton, size,
+                                0.5, fitting, false);
   }, {"frame numbers"});
 }
 

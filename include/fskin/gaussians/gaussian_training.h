@@ -132,8 +132,8 @@ struct GaussianTrainOptions {
   bool refines_in_two_passes() const { return refine_poses && pose_first_pass_steps > 0; }
   // Fitting (pose_fit_steps > 0, with two passes): refinement then runs
   // three passes with one round of fitting (pose_fit_rounds, below, adds a
-  // fourth pass per further round). The first as above; the second (in pose_pass_2/, `steps`
-  // steps) is the two-pass flow's second; then each training pose is fitted
+  // pass per further round). The first as above; the second (in
+  // pose_pass_2/, `steps` steps) is the two-pass flow's second; then each training pose is fitted
   // to all the images that see it, pose_fit_steps Adam steps with that pass's
   // Gaussians frozen (gaussian_pose_fitting.h, fit_gaussian_training_poses:
   // test-time fitting's rates and cosine decay), the fits made zero-mean
@@ -186,7 +186,7 @@ struct GaussianTrainSummary {
   bool stopped = false;
   // The first pass of pose refinement (pose_first_pass_steps) as this call
   // ran it: steps [first, last); none when it had finished before or does
-  // not exist. `seconds` counts both passes.
+  // not exist. `seconds` counts every pass.
   int64_t pose_pass_first_step = 0, pose_pass_last_step = 0;
   // The fits of the training poses this call ran: a resumed run skips a fit
   // whose following pass has begun (that pass's checkpoint holds its poses).
