@@ -1,16 +1,19 @@
 // The Gaussian rasteriser against its dense LibTorch reference (forward and
 // every gradient), finite differences in float64, a closed-form footprint,
-// depth order, determinism across thread counts, and its errors.
+// depth order, the tile lists, determinism across thread counts, and its
+// errors.
 #include "fskin/ops/gaussian_rasterization.h"
 
 #include <ATen/Parallel.h>
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
 
+#include "ops/common/dispatcher.h"
 #include "test_util.h"
 
 namespace fskin {
@@ -183,6 +186,52 @@ TEST(GaussianRasterization, NearerGaussiansCoverFartherOnesWhateverTheirOrder) {
     } else {
       EXPECT_GT(centre[2].item<float>(), 0.98f);
       EXPECT_LT(centre[0].item<float>(), 0.011f);
+    }
+  }
+}
+
+TEST(GaussianRasterization, EachTileListsTheGaussiansReachingItFrontToBack) {
+  // The forward's tile lists against the rule the header states: a Gaussian
+  // is listed in every 16 x 16 tile holding a pixel centre within its radius
+  // of its mean (clamped to the picture), each list in depth order with ties
+  // in the Gaussians' order; a Gaussian not drawn (radius 0, a NaN depth or
+  // mean) is in no list.
+  torch::manual_seed(6);
+  auto scene = random_scene(300, 70, 50, 1.0, torch::kFloat32);
+  scene.depths = torch::randint(0, 20, {300}).to(torch::kFloat32);  // many ties
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  scene.radii[3] = 0;
+  scene.depths[3] = nan;
+  scene.means2d[7][0] = nan;
+  using Forward = std::tuple<torch::Tensor, torch::Tensor, torch::Tensor, torch::Tensor>(
+      const torch::Tensor&, const torch::Tensor&, const torch::Tensor&, const torch::Tensor&, const torch::Tensor&,
+      const torch::Tensor&, const torch::Tensor&, int64_t, int64_t);
+  const auto forward = fskin_operator<Forward>("fskin::_rasterize_gaussians_forward");
+  const auto [image, alpha, listed, ranges] = forward.call(scene.means2d, scene.conics, scene.colors, scene.opacities,
+                                                           scene.depths, scene.radii, scene.background, 70, 50);
+  const int64_t tiles_x = 5, tiles_y = 4;  // ceil(70 / 16), ceil(50 / 16)
+  ASSERT_EQ(ranges.numel(), tiles_x * tiles_y + 1);
+  const auto m = scene.means2d.accessor<float, 2>();
+  const auto r = scene.radii.accessor<float, 1>(), d = scene.depths.accessor<float, 1>();
+  const auto first = [](float low, int64_t tiles) {
+    return std::clamp<int64_t>(static_cast<int64_t>(std::floor(low / 16)), 0, tiles);
+  };
+  const auto end = [](float high, int64_t tiles) {
+    return std::clamp<int64_t>(static_cast<int64_t>(std::floor(high / 16)) + 1, 0, tiles);
+  };
+  for (int64_t ty = 0; ty < tiles_y; ++ty) {
+    for (int64_t tx = 0; tx < tiles_x; ++tx) {
+      std::vector<int64_t> expected;
+      for (int64_t g = 0; g < 300; ++g) {
+        if (!(r[g] > 0) || !std::isfinite(m[g][0]) || !std::isfinite(m[g][1])) continue;
+        if (tx >= first(m[g][0] - r[g], tiles_x) && tx < end(m[g][0] + r[g], tiles_x) &&
+            ty >= first(m[g][1] - r[g], tiles_y) && ty < end(m[g][1] + r[g], tiles_y))
+          expected.push_back(g);
+      }
+      std::stable_sort(expected.begin(), expected.end(), [&](int64_t a, int64_t b) { return d[a] < d[b]; });
+      const int64_t t = ty * tiles_x + tx;
+      const auto got = listed.slice(0, ranges[t].item<int64_t>(), ranges[t + 1].item<int64_t>());
+      EXPECT_TRUE(torch::equal(got, torch::tensor(expected, torch::kInt64))) << "tile " << tx << ", " << ty;
     }
   }
 }

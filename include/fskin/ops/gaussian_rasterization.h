@@ -17,8 +17,9 @@
 // per-Gaussian, per-pixel steps. Written here rather than taken from the 3DGS
 // authors' rasteriser, whose licence forbids commercial use.
 //
-// Binning and sorting are LibTorch operations on the op's device; ties in
-// depth keep the Gaussians' order, so a scene renders the same on every run.
+// Binning and sorting are LibTorch operations on a GPU and a counting sort
+// over the tiles on the CPU (the same lists); ties in depth keep the
+// Gaussians' order, so a scene renders the same on every run.
 #include <torch/types.h>
 
 #include <tuple>
