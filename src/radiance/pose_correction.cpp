@@ -6,6 +6,7 @@
 
 #include "fskin/core/error.h"
 #include "fskin/core/tensor_checks.h"
+#include "fskin/skeleton/lbs.h"
 #include "fskin/skeleton/rotations.h"
 
 namespace fskin {
@@ -34,7 +35,7 @@ torch::Tensor corrected_bone_transforms(const torch::Tensor& bones, const torch:
   auto lift = torch::zeros(bones.select(-3, 0).sizes(), options);
   lift = lift + torch::eye(4, options);
   lift.narrow(-2, 0, 3).select(-1, 3).copy_(translation.to(options) * size);
-  const auto inverse = torch::linalg_inv(bones.detach());
+  const auto inverse = invert_transforms(bones.detach());
   std::vector<torch::Tensor> corrected(static_cast<size_t>(J)), correction(static_cast<size_t>(J));
   for (int64_t j = 0; j < J; ++j) {
     const int64_t p = skeleton.parents[static_cast<size_t>(j)];
