@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "fskin/core/error.h"
@@ -17,6 +18,17 @@ void PoseFittingOptions::validate() const {
     FSKIN_CHECK(rate > 0 && rate <= 1, "pose fitting: the learning rate {} must be in (0, 1]", rate);
   FSKIN_CHECK(std::isfinite(regularizer) && regularizer >= 0, "pose fitting: the regulariser must be >= 0, got {}",
               regularizer);
+}
+
+FrozenParameters::FrozenParameters(std::vector<torch::Tensor> parameters) : parameters_(std::move(parameters)) {
+  for (auto& t : parameters_) {
+    required_.push_back(t.requires_grad());
+    t.requires_grad_(false);
+  }
+}
+
+FrozenParameters::~FrozenParameters() {
+  for (size_t k = 0; k < parameters_.size(); ++k) parameters_[k].requires_grad_(required_[k]);
 }
 
 torch::Tensor fit_pose(const torch::Tensor& bones, const Skeleton& skeleton, double size,
@@ -37,20 +49,7 @@ void fit_pose_correction(PoseCorrectionsImpl& corrections, int64_t frame, const 
   FSKIN_CHECK(frame >= 0 && frame < corrections.frames(), "pose fitting: frame {} of {} frames", frame,
               corrections.frames());
   if (options.steps == 0) return;
-  // The frozen avatar: only the correction learns (restored on every exit).
-  struct Freeze {
-    std::vector<torch::Tensor> parameters;
-    std::vector<bool> required;
-    explicit Freeze(std::vector<torch::Tensor> p) : parameters(std::move(p)) {
-      for (auto& t : parameters) {
-        required.push_back(t.requires_grad());
-        t.requires_grad_(false);
-      }
-    }
-    ~Freeze() {
-      for (size_t k = 0; k < parameters.size(); ++k) parameters[k].requires_grad_(required[k]);
-    }
-  } freeze(frozen);
+  const FrozenParameters freeze(frozen);  // only the correction learns
   const auto f = static_cast<size_t>(frame);
   const std::array<double, 2> rates{options.learning_rate, options.translation_learning_rate};
   std::vector<torch::optim::OptimizerParamGroup> groups;

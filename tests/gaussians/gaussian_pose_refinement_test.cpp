@@ -3,6 +3,7 @@
 // the poses closer to the exact ones, and the run's refined bones are what
 // evaluation and rendering use for training poses; the two passes, their stop
 // and resume; test-time fitting of one image's pose with the Gaussians frozen.
+#include <ATen/Parallel.h>
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
@@ -152,6 +153,24 @@ TEST(GaussianPoseFitting, FitsANoisyPoseToItsImageWithTheGaussiansFrozen) {
   EXPECT_LT(fitted_error.joint_distance, 0.8 * given_error.joint_distance)
       << given_error.joint_distance << " -> " << fitted_error.joint_distance;
   EXPECT_TRUE(torch::equal(trained.avatar->means(), means));
+  // Frames fitted side by side, a thread each, end as frames fitted one after
+  // another on one thread, to the bit; the Gaussians took no gradient and
+  // are trainable again.
+  ASSERT_GE(corrections->frames(), 2);
+  const int threads = at::get_num_threads();
+  const auto fitted_on = [&](int thread_count) {
+    at::set_num_threads(thread_count);
+    PoseCorrections again(torch::stack(noisy_frames));
+    EXPECT_TRUE(fit_gaussian_training_poses(*trained.avatar, split, frame_of, *again, nullptr, data.background(),
+                                            skeleton, size, 0.5, fitting, false));
+    return again->rotations();
+  };
+  const auto one_thread = fitted_on(1), two_threads = fitted_on(2);
+  at::set_num_threads(threads);
+  EXPECT_TRUE(torch::equal(one_thread, two_threads)) << (one_thread - two_threads).abs().max().item<double>();
+  EXPECT_GT(two_threads.abs().max().item<double>(), 0);
+  EXPECT_FALSE(trained.avatar->means().grad().defined());
+  EXPECT_TRUE(trained.avatar->means().requires_grad());
   // Frame numbers that do not match the split are named.
   testing::expect_error([&] {
     fit_gaussian_training_poses(*trained.avatar, split, {0}, *corrections, nullptr, data.background(), skeleton, size,

@@ -34,9 +34,10 @@ torch::Tensor fit_gaussian_pose_to_image(GaussianAvatarImpl& avatar, const Image
 // to the images that see it (frame_of: per image of `split`, its frame,
 // frames_of_images), with the Gaussians frozen, each frame rendered with its
 // appearance code (appearance: the run's codes, one per frame; null: an avatar
-// without codes); a progress bar over the frames when `progress`. Returns
-// false when `stop` was requested before the last frame (the frames fitted so
-// far keep their fit).
+// without codes); on the CPU the frames are fitted side by side, one per
+// thread, each as it would be alone; a progress bar over the frames when
+// `progress`. Returns false when `stop` was requested before the last frame
+// (the frames fitted so far keep their fit).
 bool fit_gaussian_training_poses(GaussianAvatarImpl& avatar, const ImageSplit& split,
                                  const std::vector<int64_t>& frame_of, PoseCorrectionsImpl& corrections,
                                  const AppearanceCodesImpl* appearance, const std::array<double, 3>& background,

@@ -35,6 +35,20 @@ struct PoseFittingOptions {
   void validate() const;
 };
 
+// Parameters held without gradients for a scope (the avatar while a pose is
+// fitted), each given back its requires_grad on leaving it.
+class FrozenParameters {
+ public:
+  explicit FrozenParameters(std::vector<torch::Tensor> parameters);
+  ~FrozenParameters();
+  FrozenParameters(const FrozenParameters&) = delete;
+  FrozenParameters& operator=(const FrozenParameters&) = delete;
+
+ private:
+  std::vector<torch::Tensor> parameters_;
+  std::vector<bool> required_;
+};
+
 // The loss of an image rendered with bones [J, 4, 4] (differentiable in
 // them) at fitting step `step`.
 using PoseImageLoss = std::function<torch::Tensor(const torch::Tensor& bones, int64_t step)>;
