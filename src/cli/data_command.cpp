@@ -122,6 +122,10 @@ void register_data(CLI::App& app) {
                      "light that changes from frame to frame: each training pose's colours scaled per channel by "
                      "factors drawn from [1 - X, 1 + X] (its novel views too; novel poses unchanged); default 0")
       ->check(CLI::Range(0.0, 0.99));
+  images->add_option("--texture", images_opt->dataset.texture,
+                     "plain (colours, patterns, seams; default) or photographic (with grain, a gradient along the "
+                     "body and lines of print on top)")
+      ->check(CLI::IsMember({"plain", "photographic"}));
   images->add_flag("--quiet", images_opt->quiet, "no progress bar");
   images->callback([images_opt] {
     auto options = images_opt->dataset;

@@ -103,6 +103,8 @@ void ImageDatasetOptions::validate() const {
   FSKIN_CHECK(ambient >= 0 && ambient <= 1, "image dataset: ambient must be within [0, 1], got {}", ambient);
   FSKIN_CHECK(light_change >= 0 && light_change < 1, "image dataset: light change must be within [0, 1), got {}",
               light_change);
+  FSKIN_CHECK(texture == "plain" || texture == "photographic",
+              "image dataset: the texture must be plain or photographic, got '{}'", texture);
 }
 
 std::string ImageDatasetSummary::to_string() const {
@@ -125,7 +127,7 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
   character.weights = model.data().weights;
   character.skeleton = Skeleton{names, model.data().parents, canonical.joints[0].contiguous()};
   const auto& bind_vertices = character.mesh.vertices;
-  const SurfaceTexture texture(bind_vertices, character.weights, names);
+  const SurfaceTexture texture(bind_vertices, character.weights, names, options.texture == "photographic");
   const Eigen::Vector3d light_d(options.light[0], options.light[1], options.light[2]);
   const bool lit = light_d.norm() > 0;
   const Eigen::Vector3f light = lit ? Eigen::Vector3f(light_d.normalized().cast<float>()) : Eigen::Vector3f::Zero();
@@ -221,8 +223,10 @@ ImageDatasetSummary build_image_dataset(const BodyModel& model, const PoseSet& p
       {"elevation_degrees", options.elevation_degrees},
       {"vertical_fov_degrees", options.vertical_fov_degrees},
       {"background", background},
-      {"texture", lit ? "fskin SurfaceTexture, Lambert-shaded by a distant light"
-                      : "fskin SurfaceTexture (unlit albedo)"},
+      {"texture", fmt::format("fskin SurfaceTexture{}{}",
+                              options.texture == "photographic" ? " with photograph-like detail" : "",
+                              lit ? ", Lambert-shaded by a distant light" : " (unlit albedo)")},
+      {"texture_detail", options.texture},
       {"counts", counts},
       {"splits", image_split_names()},
   };

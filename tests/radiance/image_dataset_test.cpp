@@ -4,7 +4,10 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include <cmath>
 #include <filesystem>
+#include <string>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 #include "fskin/io/npz.h"
@@ -301,6 +304,71 @@ TEST(SurfaceTexture, GivesEveryRigDetailAndTheSmplCharacterAFace) {
                 .numel(),
             10);
   testing::expect_error([&] { SurfaceTexture(vertices, c.weights, {"a", "b"}); }, {"joint names"});
+}
+
+TEST(SurfaceTexture, PhotographicDetailAddsGrainAGradientAndPrint) {
+  // Points anywhere in the body's box, skinned to one bone whose plain albedo
+  // is light (a checker, no face, hands or shoes): the photographic albedo
+  // over the plain one is the grain times the gradient, except where print
+  // darkens it.
+  const auto& tiny = testing::tiny_image_dataset();
+  const ImageDataset data(tiny.dir);
+  const auto& c = data.character();
+  const auto vertices = c.mesh.vertices.to(torch::kFloat32);
+  std::vector<std::string> names;
+  for (int64_t j = 0; j < c.num_joints(); ++j) names.push_back("bone." + std::to_string(j));  // no SMPL parts
+  const SurfaceTexture plain(vertices, c.weights, names), photographic(vertices, c.weights, names, true);
+  std::vector<float> w(static_cast<size_t>(c.num_joints()), 0.0f);
+  w[1] = 1;  // bone 1: the checker
+  const auto lo = std::get<0>(vertices.min(0)), hi = std::get<0>(vertices.max(0));
+  const int long_axis = static_cast<int>((hi - lo).argmax().item<int64_t>());
+  torch::manual_seed(0);
+  const auto points = (lo + torch::rand({4000, 3}) * (hi - lo)).contiguous();
+  const auto p = points.accessor<float, 2>();
+  std::vector<double> low, high, band;  // green's ratio below a quarter, above three quarters, in [0.4, 0.5)
+  int64_t printed = 0;
+  for (int64_t i = 0; i < points.size(0); ++i) {
+    const Eigen::Vector3f q(p[i][0], p[i][1], p[i][2]);
+    const Eigen::Vector3f a = plain.albedo(q, w.data()), b = photographic.albedo(q, w.data());
+    ASSERT_GE(a.minCoeff(), 0.3f);
+    EXPECT_TRUE(b == photographic.albedo(q, w.data()));  // the same at the same point
+    if (b.maxCoeff() < 0.2f) {
+      ++printed;
+      continue;
+    }
+    const double along = (p[i][long_axis] - lo[long_axis].item<float>()) / (hi - lo)[long_axis].item<float>();
+    const double ratio = b.y() / a.y();  // green: no tint
+    if (along < 0.25) low.push_back(ratio);
+    if (along > 0.75) high.push_back(ratio);
+    if (along >= 0.4 && along < 0.5) band.push_back(ratio);
+  }
+  const double fraction = static_cast<double>(printed) / static_cast<double>(points.size(0));
+  EXPECT_GT(fraction, 0.02);
+  EXPECT_LT(fraction, 0.2);
+  const auto mean = [](const std::vector<double>& v) {
+    double sum = 0;
+    for (const double x : v) sum += x;
+    return sum / static_cast<double>(v.size());
+  };
+  EXPECT_GT(mean(high) - mean(low), 0.15);  // the gradient: 0.8 to 1.15 x
+  // The grain: in a band a tenth of the height across (the gradient there
+  // varies by 0.01 sd) the ratio still varies from point to point.
+  double spread = 0;
+  const double m = mean(band);
+  for (const double x : band) spread += (x - m) * (x - m);
+  EXPECT_GT(std::sqrt(spread / static_cast<double>(band.size())), 0.02);
+  // Through a dataset: recorded in the manifest; other names refused.
+  const auto dir = testing::temp_dir("image_dataset_photographic");
+  auto options = testing::tiny_image_options(dir.string());
+  options.texture = "photographic";
+  build_image_dataset(tiny.model, tiny.poses, tiny.held_out, options);
+  const auto manifest = nlohmann::json::parse(read_file((dir / "manifest.json").string()));
+  EXPECT_EQ(manifest.at("texture_detail"), "photographic");
+  EXPECT_FALSE(torch::equal(ImageDataset(dir.string()).load_split("train").images,
+                            ImageDataset(tiny.dir).load_split("train").images));
+  options.texture = "photo";
+  testing::expect_error([&] { build_image_dataset(tiny.model, tiny.poses, tiny.held_out, options); },
+                        {"plain or photographic", "photo"});
 }
 
 }  // namespace

@@ -41,6 +41,9 @@ struct ImageDatasetOptions {
   // clamped to 1. A per-frame appearance code can hold it; a colour shared by
   // every frame cannot. 0: none. Deterministic in the pose's index.
   double light_change = 0;
+  // The albedo (radiance/surface_texture.h): "plain" (colours, patterns,
+  // seams) or "photographic" (with grain, a gradient and print on top).
+  std::string texture = "plain";
   std::string canonical_pose = "default";  // dataset_builder.h
   std::string model_source, poses_source, ood_poses_source;  // recorded in the manifest
   bool progress = true;
